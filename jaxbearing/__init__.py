@@ -1,0 +1,33 @@
+"""jaxbearing: a differentiable simulator of planar multibody machines with a rolling ball
+bearing joint and impacts (after Xu 2014, Nonlinear Dynamics 78:857–879).
+
+Data flows one way: parameters (`params`, SI units) -> force laws (`laws`) -> mechanism
+assembly and equations of motion (`multibody`) -> diffrax solve (`simulate`) -> outputs
+(`Solution`). Ready-made models live in `cases`.
+
+jaxbearing computes in float64 and does not switch JAX's global mode for you: call
+``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
+"""
+
+from . import cases, laws, multibody
+from .multibody import Mechanism
+from .params import BallBearing, Impact
+from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "RESULTS",
+    "BallBearing",
+    "Contacts",
+    "Impact",
+    "Mechanism",
+    "SimulationError",
+    "Solution",
+    "cases",
+    "default_solver",
+    "kvaerno5",
+    "laws",
+    "multibody",
+    "simulate",
+]

@@ -1,0 +1,87 @@
+"""Validation of physical parameters, in one place for construction and for `simulate`.
+
+Every parameter Module lists its rules once, as ``(condition_that_is_wrong, message)`` pairs
+returned by a ``violations()`` method. The rules are enforced twice:
+
+- at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
+  and what is allowed, whenever the values are concrete;
+- inside `jaxbearing.simulate`, with `eqx.error_if`, because parameters also change after
+  construction (`eqx.tree_at`, sweeps, optimisers) and may then be traced values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+Violation = tuple[jax.Array, str]
+
+
+def require_x64() -> None:
+    """Raise if JAX runs in float32: deflections of micrometres against stiffnesses of 1e10
+    need float64."""
+    if not jax.config.read("jax_enable_x64"):
+        raise RuntimeError(
+            "jaxbearing computes in float64, but JAX is in float32 mode. Call "
+            "`jax.config.update('jax_enable_x64', True)` before building models "
+            "(or set the environment variable JAX_ENABLE_X64=1)."
+        )
+
+
+def as_float(value) -> jax.Array:
+    """A float64 array leaf (parameters stay visible to `jax.vmap` and `jax.grad`)."""
+    require_x64()
+    return jnp.asarray(value, dtype=jnp.float64)
+
+
+def _is_concrete(x) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+def _describe(value) -> str:
+    arr = np.asarray(value)
+    return f"{arr.item():.6g}" if arr.size == 1 else np.array2string(arr, precision=6)
+
+
+def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
+    """Raise a `ValueError` for the first violated rule whose inputs are concrete.
+
+    ``violations`` holds ``(is_wrong, message, value)``; traced entries are skipped here and
+    enforced later by `enforce`.
+    """
+    for is_wrong, message, value in violations:
+        if _is_concrete(is_wrong) and _is_concrete(value) and bool(np.any(np.asarray(is_wrong))):
+            raise ValueError(f"{message}; got {_describe(value)}.")
+
+
+def enforce(x, violations: Iterable[tuple[object, str, object]]):
+    """Attach every rule to ``x`` with `eqx.error_if` (usable under jit, vmap and grad)."""
+    for is_wrong, message, _ in violations:
+        x = eqx.error_if(x, jnp.any(jnp.asarray(is_wrong)), message)
+    return x
+
+
+def positive(name: str, value, unit: str):
+    return (jnp.asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
+
+
+def non_negative(name: str, value, unit: str):
+    return (jnp.asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
+
+
+def finite(name: str, value, unit: str):
+    return (~jnp.isfinite(jnp.asarray(value)), f"{name} must be finite [{unit}]", value)
+
+
+def in_open_interval(name: str, value, low: float, high: float):
+    v = jnp.asarray(value)
+    return ((v <= low) | (v >= high), f"{name} must lie in ({low}, {high})", value)
+
+
+def in_half_open_interval(name: str, value, low: float, high: float):
+    v = jnp.asarray(value)
+    return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)

@@ -1,0 +1,78 @@
+"""Rigid bodies in the plane and the kinematics of their points (paper Eqs. 1–3, 16–17).
+
+Body b has generalised coordinates q_b = [x, y, theta] of its centroid frame, stored at
+q[3b : 3b + 3]. A point with body-frame position s sits at r = r_b + A(theta) s and moves with
+r_dot + A'(theta) s theta_dot. Index `GROUND` (-1) denotes the fixed frame; its "body-frame"
+points are global points.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from .. import _checks
+
+GROUND = -1
+
+
+class Body(eqx.Module):
+    """A rigid body: mass [kg] and centroidal moment of inertia [kg m^2] about the plane normal."""
+
+    mass: jax.Array
+    inertia: jax.Array
+
+    def __init__(self, mass, inertia):
+        self.mass = _checks.as_float(mass)
+        self.inertia = _checks.as_float(inertia)
+
+    def violations(self):
+        return [
+            _checks.positive("body mass", self.mass, "kg"),
+            _checks.positive("body moment of inertia", self.inertia, "kg m^2"),
+        ]
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())
+
+
+def rotation(theta) -> jax.Array:
+    """A(theta), the 2x2 rotation matrix."""
+    c, s = jnp.cos(theta), jnp.sin(theta)
+    return jnp.array([[c, -s], [s, c]])
+
+
+def pose(q, body: int):
+    """(r, theta) of a body's frame; the ground frame is the origin."""
+    if body == GROUND:
+        return jnp.zeros(2, q.dtype), jnp.zeros((), q.dtype)
+    return q[3 * body : 3 * body + 2], q[3 * body + 2]
+
+
+def point_position(q, body: int, point) -> jax.Array:
+    """Global position r_b + A s of a body-frame point s [m] (Eqs. 2, 16)."""
+    r, theta = pose(q, body)
+    return r + rotation(theta) @ point
+
+
+def point_velocity(q, qd, body: int, point) -> jax.Array:
+    """Velocity r_dot + A' s theta_dot of a body-frame point [m/s] (Eqs. 3, 17)."""
+    if body == GROUND:
+        return jnp.zeros(2, q.dtype)
+    _, theta = pose(q, body)
+    arm = rotation(theta) @ point
+    omega = qd[3 * body + 2]
+    return qd[3 * body : 3 * body + 2] + omega * jnp.array([-arm[1], arm[0]])
+
+
+def point_force(q, body: int, point, force) -> jax.Array:
+    """Generalised force [Fx, Fy, torque] of a force [N] applied at a body-frame point, as a full
+    vector the size of q. Torque about the centroid: (A s) x F (Eqs. 29–34)."""
+    out = jnp.zeros_like(q)
+    if body == GROUND:
+        return out
+    _, theta = pose(q, body)
+    arm = rotation(theta) @ point
+    torque = arm[0] * force[1] - arm[1] * force[0]
+    return out.at[3 * body : 3 * body + 3].set(jnp.stack([force[0], force[1], torque]))

@@ -1,0 +1,247 @@
+"""Force elements: they enter the equations of motion through Q_A only (paper Sect. 2.3).
+
+Each element maps the state to a generalised force vector the size of q. The bearing joint
+(Eqs. 4–5, 9–14, 28–30), spring-damper and gravity are functions of (t, q, qd); an impact
+contact (Eqs. 16–27, 31–34) also needs the approach speed of its current contact, which
+`jaxbearing.simulate` captures at each onset.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from .. import _checks
+from ..laws import bearing as bearing_law
+from ..laws import impact as impact_law
+from ..params import BallBearing, Impact
+from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotation
+
+
+def _safe_norm(x):
+    """|x| with a finite gradient at x = 0."""
+    sq = jnp.sum(x * x)
+    safe = jnp.where(sq > 0.0, sq, 1.0)
+    return jnp.where(sq > 0.0, jnp.sqrt(safe), 0.0)
+
+
+def _angle_and_speed(q, qd, body: int):
+    if body == GROUND:
+        return jnp.zeros((), q.dtype), jnp.zeros((), q.dtype)
+    return pose(q, body)[1], qd[3 * body + 2]
+
+
+class BearingJoint(eqx.Module):
+    """A rolling ball bearing between an outer-race body (bush) and an inner-race body (journal).
+
+    The race centres are body-frame points ``outer_point`` and ``inner_point`` [m] (Eq. 2).
+    The resultant acts at the race centres: frictionless balls push along lines through the
+    centres, so this is exact for the model; the paper's Eqs. 29–30 use points on the bush and
+    journal surfaces, which adds a small spurious moment of size (R_i - R_j) x F.
+    """
+
+    outer_body: int = eqx.field(static=True)
+    inner_body: int = eqx.field(static=True)
+    outer_point: jax.Array
+    inner_point: jax.Array
+    bearing: BallBearing
+
+    def __init__(self, outer_body: int, outer_point, inner_body: int, inner_point, bearing):
+        if outer_body == inner_body:
+            raise ValueError("BearingJoint needs two different bodies for its races.")
+        self.outer_body, self.inner_body = outer_body, inner_body
+        self.outer_point = _checks.as_float(outer_point)
+        self.inner_point = _checks.as_float(inner_point)
+        self.bearing = bearing
+
+    def eccentricity(self, q, qd):
+        """e = r_j^P - r_i^P [m] and its rate v [m/s] (Eqs. 4–5)."""
+        e = point_position(q, self.inner_body, self.inner_point) - point_position(
+            q, self.outer_body, self.outer_point
+        )
+        v = point_velocity(q, qd, self.inner_body, self.inner_point) - point_velocity(
+            q, qd, self.outer_body, self.outer_point
+        )
+        return e, v
+
+    def cage_angle(self, t, q, q0, qd0):
+        """phi_c [rad]: kinematic (from the ring rotations since t = 0) or constant speed (Eq. 15
+        at the initial ring speeds), see `BallBearing.cage`."""
+        if self.bearing.cage == "kinematic":
+            inner = _angle_and_speed(q, q, self.inner_body)[0] - _angle_and_speed(
+                q0, q0, self.inner_body
+            )[0]
+            outer = _angle_and_speed(q, q, self.outer_body)[0] - _angle_and_speed(
+                q0, q0, self.outer_body
+            )[0]
+            return bearing_law.cage_speed(inner, outer, self.bearing)
+        omega_inner = _angle_and_speed(q0, qd0, self.inner_body)[1]
+        omega_outer = _angle_and_speed(q0, qd0, self.outer_body)[1]
+        return bearing_law.cage_speed(omega_inner, omega_outer, self.bearing) * t
+
+    def ball_loads(self, t, q, qd, q0, qd0):
+        """(N_b,) ball forces [N] and the cage angle [rad]."""
+        e, v = self.eccentricity(q, qd)
+        cage = self.cage_angle(t, q, q0, qd0)
+        return bearing_law.ball_loads(e, v, cage, self.bearing), cage
+
+    def force(self, t, q, qd, q0, qd0):
+        """Resultant on the outer-race body [N] (Eq. 28)."""
+        loads, cage = self.ball_loads(t, q, qd, q0, qd0)
+        return bearing_law.resultant(loads, cage)
+
+    def generalized_force(self, t, q, qd, q0, qd0):
+        f = self.force(t, q, qd, q0, qd0)
+        return point_force(q, self.outer_body, self.outer_point, f) + point_force(
+            q, self.inner_body, self.inner_point, -f
+        )
+
+
+class CircleContact(eqx.Module):
+    """Impact between two circular surfaces: radius R_j centred at body-frame point c_j of body j
+    and radius R_k at c_k of body k (SPEC §3–4; paper Eqs. 16–27, 31–34).
+
+    Penetration delta = R_j + R_k - |c_k - c_j|, normal n from c_j to c_k, tangent t = n rotated
+    +90 deg. The normal force pushes k along +n and j along -n, applied at the surface points
+    c_j + R_j n and c_k - R_k n. The contact is switched off before ``active_from`` [s] (the paper
+    switches it on after half a crank turn because the circles overlap at t = 0); it must be
+    separated at that time.
+    """
+
+    body_j: int = eqx.field(static=True)
+    body_k: int = eqx.field(static=True)
+    centre_j: jax.Array
+    centre_k: jax.Array
+    radius_j: jax.Array
+    radius_k: jax.Array
+    impact: Impact
+    active_from: jax.Array
+
+    def __init__(
+        self, body_j: int, centre_j, radius_j, body_k: int, centre_k, radius_k, impact, active_from=0.0
+    ):
+        if body_j == body_k:
+            raise ValueError("CircleContact needs two different bodies.")
+        self.body_j, self.body_k = body_j, body_k
+        self.centre_j = _checks.as_float(centre_j)
+        self.centre_k = _checks.as_float(centre_k)
+        self.radius_j = _checks.as_float(radius_j)
+        self.radius_k = _checks.as_float(radius_k)
+        self.impact = impact
+        self.active_from = _checks.as_float(active_from)
+
+    def violations(self):
+        return [
+            _checks.positive("contact radius_j", self.radius_j, "m"),
+            _checks.positive("contact radius_k", self.radius_k, "m"),
+        ]
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())
+
+    def gap(self, q, qd):
+        """Penetration [m], its rate [m/s] (> 0 approaching), normal n, tangent t and the
+        tangential slip speed [m/s] (Eqs. 18–22)."""
+        c_j = point_position(q, self.body_j, self.centre_j)
+        c_k = point_position(q, self.body_k, self.centre_k)
+        r_d = c_k - c_j
+        distance = _safe_norm(r_d)
+        n = r_d / jnp.where(distance > 0.0, distance, 1.0)
+        t = jnp.stack([-n[1], n[0]])
+        penetration = self.radius_j + self.radius_k - distance
+        v_j = point_velocity(q, qd, self.body_j, self.centre_j)
+        v_k = point_velocity(q, qd, self.body_k, self.centre_k)
+        rate = -(v_k - v_j) @ n
+        # slip of the surface points: centre velocities plus rotation times the radius arm
+        omega_j = _angle_and_speed(q, qd, self.body_j)[1]
+        omega_k = _angle_and_speed(q, qd, self.body_k)[1]
+        slip = (v_k - v_j) @ t - omega_k * self.radius_k - omega_j * self.radius_j
+        return penetration, rate, n, t, slip
+
+    def active(self, t):
+        return t >= self.active_from
+
+    def forces(self, t, q, qd, approach_speed):
+        """Normal force [N] (Eq. 23) and signed tangential force along t [N] (Eq. 26)."""
+        penetration, rate, _, _, slip = self.gap(q, qd)
+        imp = self.impact
+        normal = impact_law.lankarani_nikravesh(
+            penetration, rate, approach_speed, imp.stiffness, imp.restitution
+        )
+        normal = jnp.where(self.active(t), normal, 0.0)
+        tangential = impact_law.ambrosio_friction(
+            normal, slip, imp.friction, imp.friction_v0, imp.friction_v1
+        )
+        return normal, tangential
+
+    def generalized_force(self, t, q, qd, approach_speed):
+        normal, tangential = self.forces(t, q, qd, approach_speed)
+        _, _, n, tan, _ = self.gap(q, qd)
+        on_k = normal * n + tangential * tan
+        _, theta_j = pose(q, self.body_j)
+        _, theta_k = pose(q, self.body_k)
+        # surface points in body frames: c + A^T (R n)
+        g_j = self.centre_j + rotation(theta_j).T @ (self.radius_j * n)
+        g_k = self.centre_k - rotation(theta_k).T @ (self.radius_k * n)
+        return point_force(q, self.body_k, g_k, on_k) + point_force(q, self.body_j, g_j, -on_k)
+
+
+class SpringDamper(eqx.Module):
+    """Linear spring-damper between point s_i of body i and s_j of body j (either may be
+    `GROUND`): tension k (l - l0) + c dl/dt [N] along the line between the points."""
+
+    body_i: int = eqx.field(static=True)
+    body_j: int = eqx.field(static=True)
+    point_i: jax.Array
+    point_j: jax.Array
+    stiffness: jax.Array
+    damping: jax.Array
+    free_length: jax.Array
+
+    def __init__(self, body_i: int, point_i, body_j: int, point_j, stiffness, damping, free_length):
+        self.body_i, self.body_j = body_i, body_j
+        self.point_i = _checks.as_float(point_i)
+        self.point_j = _checks.as_float(point_j)
+        self.stiffness = _checks.as_float(stiffness)
+        self.damping = _checks.as_float(damping)
+        self.free_length = _checks.as_float(free_length)
+
+    def violations(self):
+        return [
+            _checks.non_negative("spring stiffness", self.stiffness, "N/m"),
+            _checks.non_negative("spring damping", self.damping, "N s/m"),
+            _checks.positive("spring free length", self.free_length, "m"),
+        ]
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())
+
+    def generalized_force(self, t, q, qd, q0, qd0):
+        d = point_position(q, self.body_j, self.point_j) - point_position(q, self.body_i, self.point_i)
+        length = _safe_norm(d)
+        u = d / jnp.where(length > 0.0, length, 1.0)
+        rate = (
+            point_velocity(q, qd, self.body_j, self.point_j)
+            - point_velocity(q, qd, self.body_i, self.point_i)
+        ) @ u
+        tension = impact_law.spring_damper(length - self.free_length, rate, self.stiffness, self.damping)
+        return point_force(q, self.body_i, self.point_i, tension * u) + point_force(
+            q, self.body_j, self.point_j, -tension * u
+        )
+
+
+class Gravity(eqx.Module):
+    """Uniform gravity g [m/s^2] on every body (off in the paper's case)."""
+
+    acceleration: jax.Array
+
+    def __init__(self, acceleration=(0.0, -9.80665)):
+        self.acceleration = _checks.as_float(acceleration)
+
+    def generalized_force(self, masses, q):
+        """[m g_x, m g_y, 0] per body, for body masses (n_bodies,) [kg]."""
+        per_body = jnp.concatenate(
+            [masses[:, None] * self.acceleration[None, :], jnp.zeros((masses.shape[0], 1), q.dtype)], 1
+        )
+        return per_body.reshape(-1)

@@ -1,0 +1,247 @@
+"""Assembly of bodies, joints and force elements into the equations of motion (paper Eq. 36).
+
+    [M  Phi_q^T] [q_ddot]   [Q_A                                ]
+    [Phi_q  0  ] [lambda] = [gamma - 2 alpha Phi_dot - beta^2 Phi]
+
+M = diag(m, m, J) per body is diagonal, so the system is solved by its Schur complement
+S = Phi_q M^-1 Phi_q^T (a small SPD matrix, Cholesky), never as the full augmented matrix.
+Phi_q, Phi_t and gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt come from forward-mode
+derivatives of the joints' position equations.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+
+from .. import _checks
+from ..params import BallBearing, Impact
+from .bodies import Body
+from .forces import BearingJoint, CircleContact, Gravity
+
+POSITION_TOLERANCE = 1e-8  # [m or rad] allowed violation of Phi(q0, 0) = 0
+VELOCITY_TOLERANCE = 1e-6  # [m/s or rad/s] allowed violation of Phi_dot(q0, qd0, 0) = 0
+
+
+class Mechanism(eqx.Module):
+    """A planar multibody system: the model that `jaxbearing.simulate` integrates.
+
+    Fields:
+        bodies: the moving bodies; body b owns q[3b:3b+3] = [x, y, theta].
+        joints: kinematic constraints (`Revolute`, `Translational`, `Driver`).
+        forces: state-only force elements (`BearingJoint`, `SpringDamper`).
+        contacts: impact contacts (`CircleContact`), whose approach speeds are captured per
+            contact by `simulate`.
+        gravity: a `Gravity` or None.
+        q0, qd0: initial coordinates [m, rad] and velocities [m/s, rad/s], (3 n_bodies,).
+        baumgarte_alpha, baumgarte_beta: Baumgarte stabilisation parameters [1/s] (Eq. 36).
+        body_names: labels of the bodies, in order (static).
+    """
+
+    bodies: tuple[Body, ...]
+    joints: tuple
+    forces: tuple
+    contacts: tuple[CircleContact, ...]
+    gravity: Gravity | None
+    q0: jax.Array
+    qd0: jax.Array
+    baumgarte_alpha: jax.Array
+    baumgarte_beta: jax.Array
+    body_names: tuple[str, ...] = eqx.field(static=True)
+
+    def __init__(
+        self,
+        bodies,
+        joints,
+        q0,
+        qd0,
+        *,
+        forces=(),
+        contacts=(),
+        gravity=None,
+        baumgarte_alpha=5.0,
+        baumgarte_beta=5.0,
+        body_names=None,
+    ):
+        self.bodies = tuple(bodies)
+        self.joints = tuple(joints)
+        self.forces = tuple(forces)
+        self.contacts = tuple(contacts)
+        self.gravity = gravity
+        self.q0 = _checks.as_float(q0)
+        self.qd0 = _checks.as_float(qd0)
+        self.baumgarte_alpha = _checks.as_float(baumgarte_alpha)
+        self.baumgarte_beta = _checks.as_float(baumgarte_beta)
+        n = 3 * len(self.bodies)
+        if not self.bodies:
+            raise ValueError("A Mechanism needs at least one moving body.")
+        if self.q0.shape != (n,) or self.qd0.shape != (n,):
+            raise ValueError(
+                f"q0 and qd0 must have shape ({n},) (x, y, theta per body); got "
+                f"{self.q0.shape} and {self.qd0.shape}."
+            )
+        names = tuple(body_names) if body_names is not None else tuple(
+            f"body{b}" for b in range(len(self.bodies))
+        )
+        if len(names) != len(self.bodies):
+            raise ValueError(f"body_names has {len(names)} entries for {len(self.bodies)} bodies.")
+        self.body_names = names
+        for element in self.forces:
+            for body in _bodies_of(element):
+                if body >= len(self.bodies) or body < -1:
+                    raise ValueError(f"{type(element).__name__} refers to body {body}, which does not exist.")
+        if self.n_constraints >= n:
+            raise ValueError(
+                f"{self.n_constraints} constraint equations leave no freedom to {n} coordinates."
+            )
+
+    # -- structure -------------------------------------------------------------------------
+    @property
+    def n_coordinates(self) -> int:
+        return 3 * len(self.bodies)
+
+    @property
+    def n_constraints(self) -> int:
+        return sum(j.n_equations for j in self.joints)
+
+    @property
+    def masses(self) -> jax.Array:
+        return jnp.stack([b.mass for b in self.bodies])
+
+    @property
+    def inverse_mass(self) -> jax.Array:
+        """Diagonal of M^-1, (n_coordinates,)."""
+        per_body = [jnp.stack([1.0 / b.mass, 1.0 / b.mass, 1.0 / b.inertia]) for b in self.bodies]
+        return jnp.concatenate(per_body)
+
+    @property
+    def bearings(self) -> tuple[BearingJoint, ...]:
+        return tuple(f for f in self.forces if isinstance(f, BearingJoint))
+
+    @property
+    def bearing(self) -> BallBearing:
+        """Parameters of the model's only bearing joint (``model.bearing.clearance`` etc.)."""
+        bearings = self.bearings
+        if len(bearings) != 1:
+            raise AttributeError(
+                f"model.bearing needs exactly one BearingJoint, this model has {len(bearings)}; "
+                "use model.bearings[i].bearing."
+            )
+        return bearings[0].bearing
+
+    @property
+    def impact(self) -> Impact:
+        """Parameters of the model's only impact contact (``model.impact.restitution`` etc.)."""
+        if len(self.contacts) != 1:
+            raise AttributeError(
+                f"model.impact needs exactly one contact, this model has {len(self.contacts)}; "
+                "use model.contacts[i].impact."
+            )
+        return self.contacts[0].impact
+
+    # -- constraints (Eqs. 35–36) ------------------------------------------------------------
+    def constraints(self, q, t) -> jax.Array:
+        """Phi(q, t), (n_constraints,)."""
+        return jnp.concatenate([joint(q, t) for joint in self.joints])
+
+    def constraint_velocity(self, q, qd, t) -> jax.Array:
+        """Phi_dot = Phi_q q_dot + Phi_t."""
+        return jax.jvp(lambda q_, t_: self.constraints(q_, t_), (q, t), (qd, jnp.ones_like(t)))[1]
+
+    def constraint_rhs(self, q, qd, t):
+        """Phi_q and the right-hand side gamma - 2 alpha Phi_dot - beta^2 Phi of Eq. 36."""
+        t = jnp.asarray(t, q.dtype)
+        jac = jax.jacfwd(self.constraints)(q, t)
+        phi = self.constraints(q, t)
+        phi_dot, second = jax.jvp(
+            lambda q_, t_: self.constraint_velocity(q_, qd, t_), (q, t), (qd, jnp.ones_like(t))
+        )
+        # second = d/dt Phi_dot at zero acceleration = qd' Phi_qq qd + 2 Phi_qt qd + Phi_tt = -gamma
+        rhs = -second - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
+        return jac, rhs
+
+    # -- forces and accelerations ------------------------------------------------------------
+    def generalized_forces(self, t, q, qd, approach_speeds) -> jax.Array:
+        """Q_A: all force elements and contacts, (n_coordinates,) [N, N m]."""
+        total = jnp.zeros_like(q)
+        for element in self.forces:
+            total = total + element.generalized_force(t, q, qd, self.q0, self.qd0)
+        for c, contact in enumerate(self.contacts):
+            total = total + contact.generalized_force(t, q, qd, approach_speeds[c])
+        if self.gravity is not None:
+            total = total + self.gravity.generalized_force(self.masses, q)
+        return total
+
+    def accelerations(self, t, q, qd, approach_speeds) -> jax.Array:
+        """q_ddot from Eq. 36 by the Schur complement of the diagonal mass matrix."""
+        forces = self.generalized_forces(t, q, qd, approach_speeds)
+        m_inv = self.inverse_mass
+        if not self.joints:
+            return m_inv * forces
+        jac, rhs = self.constraint_rhs(q, qd, t)
+        jm = jac * m_inv[None, :]
+        schur = jm @ jac.T
+        lam = jsl.cho_solve(jsl.cho_factor(schur), jm @ forces - rhs)
+        return m_inv * (forces - jac.T @ lam)
+
+    def contact_gaps(self, q, qd):
+        """Penetrations [m] and their rates [m/s] of all contacts, each (n_contacts,)."""
+        if not self.contacts:
+            return jnp.zeros((0,), q.dtype), jnp.zeros((0,), q.dtype)
+        gaps = [c.gap(q, qd)[:2] for c in self.contacts]
+        return jnp.stack([g[0] for g in gaps]), jnp.stack([g[1] for g in gaps])
+
+    # -- validation --------------------------------------------------------------------------
+    def violations(self):
+        """Every rule on every parameter of the model, plus consistency of the initial state."""
+        rules = []
+        for node in _modules_below(self):
+            if hasattr(node, "violations"):
+                rules.extend(node.violations())
+        t0 = jnp.zeros((), self.q0.dtype)
+        if self.joints:
+            pos = jnp.max(jnp.abs(self.constraints(self.q0, t0)))
+            vel = jnp.max(jnp.abs(self.constraint_velocity(self.q0, self.qd0, t0)))
+            rules.append(
+                (
+                    pos > POSITION_TOLERANCE,
+                    f"initial positions q0 violate the joints by more than {POSITION_TOLERANCE} "
+                    "(m or rad): make q0 consistent with the joints",
+                    pos,
+                )
+            )
+            rules.append(
+                (
+                    vel > VELOCITY_TOLERANCE,
+                    f"initial velocities qd0 violate the joints by more than {VELOCITY_TOLERANCE} "
+                    "(m/s or rad/s): make qd0 consistent with the joints and drivers",
+                    vel,
+                )
+            )
+        rules.append(_checks.positive("Baumgarte alpha", self.baumgarte_alpha, "1/s"))
+        rules.append(_checks.positive("Baumgarte beta", self.baumgarte_beta, "1/s"))
+        return rules
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())
+
+
+def _modules_below(module):
+    """Every Module nested in ``module``'s fields (depth first), not ``module`` itself."""
+    children = [getattr(module, f.name) for f in dataclasses.fields(module)]
+    for child in jax.tree_util.tree_leaves(children, is_leaf=lambda x: isinstance(x, eqx.Module)):
+        if isinstance(child, eqx.Module):
+            yield child
+            yield from _modules_below(child)
+
+
+def _bodies_of(element) -> list[int]:
+    names = ("outer_body", "inner_body", "body_i", "body_j", "body_k", "body")
+    return [getattr(element, n) for n in names if hasattr(element, n)]
+
+
+__all__ = ["Mechanism"]

@@ -1,0 +1,190 @@
+"""Parameter Modules of the force laws, in SI units.
+
+Numbers are float64 array leaves, so `eqx.tree_at`, `jax.vmap` and `jax.grad` see them; choices
+of model (cage mode, force variant, exponent) are static fields. Rules on the values live in each
+Module's ``violations()`` and are checked at construction and again inside `jaxbearing.simulate`.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from . import _checks
+from .laws import hertz
+
+CageMode = Literal["kinematic", "constant"]
+BallForce = Literal["paper", "smooth"]
+
+BALL_EXPONENT = 1.5
+ROLLER_EXPONENT = 10.0 / 9.0
+
+
+class BallBearing(eqx.Module):
+    """A radial rolling bearing seen by the planar model (paper Sect. 2.1).
+
+    Fields:
+        clearance: P_d, diametral clearance [m] (Eq. 12 subtracts P_d/2 on each side).
+        stiffness: K_b, ball load–deflection constant, inner and outer contact in series
+            [N/m^exponent] (Eq. 11).
+        damping: C_b, per-ball damping coefficient [N s/m] (Eq. 9).
+        inner_race_diameter: d_i, inner raceway diameter [m] (cage speed, Eq. 15).
+        outer_race_diameter: d_o, outer raceway diameter [m] (cage speed, Eq. 15).
+        damping_ramp: deflection over which the smooth variant ramps the damping in [m].
+        n_balls: N_b, number of rolling elements (static).
+        exponent: n of Eq. 9: 3/2 for balls, 10/9 for rollers (static).
+        cage: ``"kinematic"`` (cage angle from the ring angles, the default) or ``"constant"``
+            (cage speed of Eq. 15 at the initial ring speeds), see SPEC §2 (static).
+        ball_force: ``"paper"`` (Eq. 9, damping on at first touch) or ``"smooth"`` (damping
+            ramped in over ``damping_ramp``, for gradients) (static).
+    """
+
+    clearance: jax.Array
+    stiffness: jax.Array
+    damping: jax.Array
+    inner_race_diameter: jax.Array
+    outer_race_diameter: jax.Array
+    damping_ramp: jax.Array
+    n_balls: int = eqx.field(static=True)
+    exponent: float = eqx.field(static=True)
+    cage: CageMode = eqx.field(static=True)
+    ball_force: BallForce = eqx.field(static=True)
+
+    def __init__(
+        self,
+        clearance,
+        stiffness,
+        damping,
+        inner_race_diameter,
+        outer_race_diameter,
+        n_balls: int,
+        *,
+        exponent: float = BALL_EXPONENT,
+        cage: CageMode = "kinematic",
+        ball_force: BallForce = "paper",
+        damping_ramp=1e-6,
+    ):
+        if int(n_balls) != n_balls or n_balls < 3:
+            raise ValueError(f"n_balls must be an integer of at least 3; got {n_balls}.")
+        if cage not in ("kinematic", "constant"):
+            raise ValueError(f"cage must be 'kinematic' or 'constant'; got {cage!r}.")
+        if ball_force not in ("paper", "smooth"):
+            raise ValueError(f"ball_force must be 'paper' or 'smooth'; got {ball_force!r}.")
+        if exponent <= 1.0:
+            raise ValueError(f"exponent must exceed 1 (3/2 balls, 10/9 rollers); got {exponent}.")
+        self.clearance = _checks.as_float(clearance)
+        self.stiffness = _checks.as_float(stiffness)
+        self.damping = _checks.as_float(damping)
+        self.inner_race_diameter = _checks.as_float(inner_race_diameter)
+        self.outer_race_diameter = _checks.as_float(outer_race_diameter)
+        self.damping_ramp = _checks.as_float(damping_ramp)
+        self.n_balls = int(n_balls)
+        self.exponent = float(exponent)
+        self.cage = cage
+        self.ball_force = ball_force
+
+    @classmethod
+    def from_geometry(
+        cls,
+        *,
+        pitch_diameter,
+        ball_diameter,
+        n_balls: int,
+        groove_inner,
+        groove_outer,
+        clearance,
+        damping,
+        youngs_modulus=207e9,
+        poisson_ratio=0.3,
+        **kwargs,
+    ) -> BallBearing:
+        """Build from the bearing's internal geometry (Eqs. 10–11, Harris).
+
+        Args:
+            pitch_diameter: d_m [m]. ball_diameter: D [m].
+            groove_inner, groove_outer: raceway groove curvature ratios f = r/D (> 0.5).
+            clearance: P_d, diametral [m]. damping: C_b [N s/m].
+            youngs_modulus [Pa], poisson_ratio: of balls and rings.
+        """
+        _, _, k_ball = hertz.bearing_stiffness(
+            ball_diameter, pitch_diameter, groove_inner, groove_outer, youngs_modulus, poisson_ratio
+        )
+        return cls(
+            clearance=clearance,
+            stiffness=k_ball,
+            damping=damping,
+            inner_race_diameter=jnp.asarray(pitch_diameter) - jnp.asarray(ball_diameter),
+            outer_race_diameter=jnp.asarray(pitch_diameter) + jnp.asarray(ball_diameter),
+            n_balls=n_balls,
+            **kwargs,
+        )
+
+    def violations(self):
+        return [
+            _checks.non_negative("bearing clearance", self.clearance, "m"),
+            _checks.finite("bearing clearance", self.clearance, "m"),
+            _checks.positive("bearing stiffness", self.stiffness, "N/m^n"),
+            _checks.non_negative("bearing damping", self.damping, "N s/m"),
+            _checks.positive("inner raceway diameter", self.inner_race_diameter, "m"),
+            (
+                self.outer_race_diameter <= self.inner_race_diameter,
+                "outer raceway diameter must exceed the inner raceway diameter [m]",
+                self.outer_race_diameter,
+            ),
+            _checks.positive("damping ramp", self.damping_ramp, "m"),
+        ]
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())
+
+
+class Impact(eqx.Module):
+    """Lankarani–Nikravesh contact with Ambrosio friction (paper Eqs. 23, 26–27).
+
+    Fields:
+        stiffness: K_d, Hertz constant of the pair [N/m^1.5] (Eqs. 24–25).
+        restitution: e_c, coefficient of restitution, in (0, 1].
+        friction: mu, Coulomb friction coefficient (>= 0).
+        friction_v0, friction_v1: tangential speeds between which friction ramps in [m/s]
+            (Eq. 27), 0 <= v0 < v1.
+    """
+
+    stiffness: jax.Array
+    restitution: jax.Array
+    friction: jax.Array
+    friction_v0: jax.Array
+    friction_v1: jax.Array
+
+    def __init__(self, stiffness, restitution, friction=0.0, friction_v0=1e-4, friction_v1=1e-3):
+        self.stiffness = _checks.as_float(stiffness)
+        self.restitution = _checks.as_float(restitution)
+        self.friction = _checks.as_float(friction)
+        self.friction_v0 = _checks.as_float(friction_v0)
+        self.friction_v1 = _checks.as_float(friction_v1)
+
+    @classmethod
+    def from_geometry(
+        cls, *, radius_j, radius_k, restitution, youngs_modulus=207e9, poisson_ratio=0.3, **kwargs
+    ) -> Impact:
+        """Stiffness of two spheres (or circular arcs) of radii R_j, R_k [m] of one material."""
+        k = hertz.impact_stiffness(radius_j, radius_k, youngs_modulus, poisson_ratio)
+        return cls(stiffness=k, restitution=restitution, **kwargs)
+
+    def violations(self):
+        return [
+            _checks.positive("impact stiffness", self.stiffness, "N/m^1.5"),
+            _checks.in_half_open_interval("restitution", self.restitution, 0.0, 1.0),
+            _checks.non_negative("friction coefficient", self.friction, "-"),
+            _checks.non_negative("friction_v0", self.friction_v0, "m/s"),
+            (
+                self.friction_v1 <= self.friction_v0,
+                "friction_v1 must exceed friction_v0 [m/s]",
+                self.friction_v1,
+            ),
+        ]
+
+    def __check_init__(self):
+        _checks.raise_if_concrete(self.violations())

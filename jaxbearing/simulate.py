@@ -1,0 +1,414 @@
+"""Integration of a `Mechanism` with diffrax: the only place that calls `diffeqsolve`.
+
+State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
+(Lankarani–Nikravesh, Eq. 23), so the solve is split into segments at contact events: a
+`diffrax.Event` locates, with a root finder, the time at which a penetration crosses zero
+(onset) or falls below -`SEPARATION_OFFSET` (separation); the next segment restarts there with the
+approach speed recorded at the onset. Segments run in a `lax.scan` of fixed length
+``max_segments`` (reverse- and forward-mode differentiable, vmappable); finished members idle in
+zero-length solves. A run that needs more segments than allowed fails loudly.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import equinox.internal as eqxi
+import diffrax
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+
+from . import _checks
+from .multibody.mechanism import Mechanism
+
+SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
+EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
+
+
+class RESULTS(diffrax.RESULTS):
+    """diffrax's result codes plus the ones of the segmented solve."""
+
+    max_segments_reached = (
+        "More contact events than max_segments allow (each onset and each separation starts a "
+        "segment). Increase `max_segments`."
+    )
+
+
+class SimulationError(RuntimeError):
+    """A solve failed: the message says when (simulated time) and what to change."""
+
+
+class Contacts(eqx.Module):
+    """Onsets of impact contacts, one slot per segment (padded; read ``valid``).
+
+    Fields:
+        time: onset times [s], NaN in unused slots, (max_segments,).
+        approach_speed: penetration rate at onset, delta_dot^(-) of Eq. 23 [m/s].
+        index: which contact of ``model.contacts`` started, -1 in unused slots.
+        valid: True where the slot holds an onset.
+    """
+
+    time: jax.Array
+    approach_speed: jax.Array
+    index: jax.Array
+    valid: jax.Array
+
+    @property
+    def count(self) -> jax.Array:
+        """Number of contact onsets."""
+        return jnp.sum(self.valid, axis=-1)
+
+
+class Solution(eqx.Module):
+    """Result of `simulate`: states and force outputs at the requested times.
+
+    Fields (T = number of output times):
+        ts: (T,) [s].
+        q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
+            in model order, [x, y, theta] each.
+        ball_loads: (T, N_b) [N] of the model's first bearing joint, ball 1 first (None
+            without a bearing).
+        bearing_force: (T, 2) [N], resultant on its outer-race body (Eq. 28) (None without).
+        cage_angle: (T,) [rad] of that bearing (None without).
+        contact_force: (T,) [N], normal force of the first impact contact (zeros without).
+        penetration: (T,) [m], penetration of the first impact contact (zeros without).
+        approach_speed: (T, n_contacts) [m/s], approach speed in force at each output time.
+        drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
+        contacts: `Contacts`, the onsets.
+        result: a `RESULTS` code (successful unless a segment failed).
+        t_final: time reached [s] (t1 unless the solve failed).
+        num_steps, num_rejected_steps: solver steps over all segments.
+        num_segments: number of segments used.
+    """
+
+    ts: jax.Array
+    q: jax.Array
+    qd: jax.Array
+    qdd: jax.Array
+    ball_loads: jax.Array | None
+    bearing_force: jax.Array | None
+    cage_angle: jax.Array | None
+    contact_force: jax.Array
+    penetration: jax.Array
+    approach_speed: jax.Array
+    drift: jax.Array
+    contacts: Contacts
+    result: RESULTS
+    t_final: jax.Array
+    num_steps: jax.Array
+    num_rejected_steps: jax.Array
+    num_segments: jax.Array
+
+
+class _Progress(diffrax.AbstractProgressMeter):
+    """Prints the simulated time every ``every`` of the whole span, across segments."""
+
+    t_start: jax.Array
+    t0: jax.Array
+    t1: jax.Array
+    label: str = eqx.field(static=True)
+    every: float = eqx.field(static=True, default=0.05)
+
+    def _fraction(self, progress):
+        return (self.t_start - self.t0 + progress * (self.t1 - self.t_start)) / (self.t1 - self.t0)
+
+    def init(self):
+        return self._fraction(jnp.zeros(()))
+
+    def step(self, state, progress):
+        fraction = self._fraction(progress)
+        pred = eqxi.unvmap_all((fraction - state >= self.every) | (progress == 1))
+
+        def report():
+            jax.debug.callback(_print_progress, self.label, fraction, self.t0 + fraction * (self.t1 - self.t0))
+            return fraction
+
+        return jax.lax.cond(eqxi.nonbatchable(pred), report, lambda: state)
+
+    def close(self, state):
+        return None
+
+
+def _print_progress(label, fraction, t):
+    print(f"{label}: t = {float(t):.4f} s ({100 * float(fraction):5.1f} %)", flush=True)
+
+
+def default_solver() -> diffrax.AbstractSolver:
+    """Tsit5: on the paper's case it is the fastest at equal accuracy (README, benchmarks)."""
+    return diffrax.Tsit5()
+
+
+def kvaerno5(rtol=1e-8, atol=1e-10) -> diffrax.Kvaerno5:
+    """Kvaerno5 with a simplified Newton (VeryChord) at tolerances tied to the step control."""
+    return diffrax.Kvaerno5(
+        root_finder=diffrax.VeryChord(rtol=rtol * 1e-2, atol=atol * 1e-2, norm=optx.max_norm)
+    )
+
+
+def _is_implicit(solver) -> bool:
+    return isinstance(solver, diffrax.AbstractImplicitSolver)
+
+
+def simulate(
+    model: Mechanism,
+    t1: float,
+    ts=None,
+    *,
+    t0: float = 0.0,
+    solver: diffrax.AbstractSolver | None = None,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    max_steps: int = 200_000,
+    max_segments: int = 64,
+    throw: bool = True,
+    progress: str | None = None,
+) -> Solution:
+    """Integrate the equations of motion (Eq. 36) from ``t0`` to ``t1`` [s].
+
+    Args:
+        model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
+        t1: final time [s], > t0.
+        ts: output times, increasing, within [t0, t1] (default 1001 points).
+        solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
+            stiff solver.
+        rtol, atol: error control of the PID step-size controller (state in m, rad, m/s).
+        stepsize_controller: overrides the default `PIDController(rtol, atol)` (with
+            pcoeff = icoeff = 0.3 for implicit solvers).
+        max_steps: step limit of each segment.
+        max_segments: segments between contact events (each onset and each separation starts
+            one); the run fails if it needs more.
+        throw: raise `SimulationError` (or an equinox runtime error under transformations) on
+            failure; with False, inspect ``sol.result`` and ``sol.t_final``.
+        progress: a label to print progress under, or None.
+    """
+    _checks.require_x64()
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    if ts is None:
+        ts = jnp.linspace(t0, t1, 1001)
+    ts = jnp.asarray(ts, dtype=jnp.float64)
+    if _concrete(t1) and _concrete(t0) and not float(t1) > float(t0):
+        raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+    if max_segments < 1:
+        raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
+    solver = default_solver() if solver is None else solver
+    if stepsize_controller is None:
+        coeffs = dict(pcoeff=0.3, icoeff=0.3) if _is_implicit(solver) else {}
+        stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, **coeffs)
+    sol = _simulate(
+        model,
+        jnp.asarray(t0, jnp.float64),
+        jnp.asarray(t1, jnp.float64),
+        ts,
+        solver,
+        stepsize_controller,
+        max_steps,
+        max_segments,
+        progress,
+    )
+    if throw:
+        sol = _raise_on_failure(sol, t1)
+    return sol
+
+
+def _concrete(x) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+@eqx.filter_jit
+def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, progress):
+    rules = model.violations()
+    rules.append(
+        (t1 <= t0, "t1 must be greater than t0 [s]", t1)
+    )
+    rules.append(
+        ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]),
+         "ts must be increasing and lie within [t0, t1]", ts)
+    )
+    y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+    n = model.n_coordinates
+    n_contacts = len(model.contacts)
+    T = ts.shape[0]
+
+    def vector_field(t, y, args):
+        approach, _ = args
+        q, qd = y[:n], y[n:]
+        return jnp.concatenate([qd, model.accelerations(t, q, qd, approach)])
+
+    def make_cond(c):
+        contact = model.contacts[c]
+
+        def cond(t, y, args, **kwargs):
+            _, in_contact = args
+            penetration = contact.gap(y[:n], y[n:])[0]
+            value = jnp.where(in_contact[c], -(penetration + SEPARATION_OFFSET), penetration)
+            return jnp.where(contact.active(t), value, -1.0)
+
+        return cond
+
+    event = None
+    if n_contacts:
+        event = diffrax.Event(
+            [make_cond(c) for c in range(n_contacts)],
+            root_finder=optx.Newton(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
+            direction=True,
+        )
+    term = diffrax.ODETerm(vector_field)
+
+    def segment(carry, slot):
+        t_start, y_start, approach, in_contact, out_y, out_approach, done, result, steps, rejected = carry
+        meter = (
+            diffrax.NoProgressMeter()
+            if progress is None
+            else _Progress(t_start=t_start, t0=t0, t1=t1, label=progress)
+        )
+        sol = diffrax.diffeqsolve(
+            term,
+            solver,
+            t_start,
+            t1,
+            None,
+            y_start,
+            args=(approach, in_contact),
+            saveat=diffrax.SaveAt(
+                subs=[diffrax.SubSaveAt(ts=jnp.clip(ts, t_start, t1)), diffrax.SubSaveAt(t1=True)]
+            ),
+            stepsize_controller=controller,
+            event=event,
+            max_steps=max_steps,
+            throw=False,
+            progress_meter=meter,
+        )
+        (_, t_end), (ys, y_end) = sol.ts, sol.ys
+        t_end, y_end = t_end[0], y_end[0]
+        ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
+        hit = sol.result == diffrax.RESULTS.event_occurred
+        # outputs of this segment: output times in [t_start, t_end]
+        mine = (~done) & (ts >= t_start) & (ts <= t_end)
+        out_y = jnp.where(mine[:, None], ys, out_y)
+        out_approach = jnp.where(mine[:, None], approach[None, :], out_approach)
+        # contact bookkeeping at the event
+        if n_contacts:
+            triggered = jnp.stack(sol.event_mask) & hit & ~done
+            _, rate = model.contact_gaps(y_end[:n], y_end[n:])
+            onset = triggered & ~in_contact
+            approach = jnp.where(onset, rate, approach)
+            in_contact = jnp.where(triggered, ~in_contact, in_contact)
+            has_onset = jnp.any(onset)
+            record = (
+                jnp.where(has_onset, t_end, jnp.nan),
+                jnp.where(has_onset, jnp.sum(jnp.where(onset, rate, 0.0)), jnp.nan),
+                jnp.where(has_onset, jnp.argmax(onset), -1),
+                has_onset,
+            )
+        else:
+            record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+        result = RESULTS.where(done | ok, result, RESULTS.promote(sol.result))
+        steps = steps + jnp.where(done, 0, sol.stats["num_steps"])
+        rejected = rejected + jnp.where(done, 0, sol.stats.get("num_rejected_steps", 0))
+        t_reached = jnp.where(done, t_start, t_end)
+        finished = done | ~hit  # reached t1, or failed
+        carry = (
+            jnp.where(finished, t1, t_end),
+            jnp.where(done, y_start, y_end),
+            approach,
+            in_contact,
+            out_y,
+            out_approach,
+            finished,
+            result,
+            steps,
+            rejected,
+        )
+        return carry, record + (t_reached, ~done)
+
+    init = (
+        t0,
+        y0,
+        jnp.zeros(n_contacts),
+        jnp.zeros(n_contacts, bool),
+        jnp.full((T, 2 * n), jnp.nan),
+        jnp.zeros((T, n_contacts)),
+        jnp.asarray(False),
+        RESULTS.successful,
+        jnp.asarray(0),
+        jnp.asarray(0),
+    )
+    final, records = jax.lax.scan(segment, init, jnp.arange(max_segments))
+    t_last, _, _, _, out_y, out_approach, done, result, steps, rejected = final
+    onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
+    t_final = jnp.max(jnp.where(used, t_reached, t0))
+    result = RESULTS.where(done, result, RESULTS.max_segments_reached)
+    return _outputs(
+        model,
+        ts,
+        out_y,
+        out_approach,
+        Contacts(onset_t, onset_v, onset_i, onset_valid),
+        result,
+        t_final,
+        steps,
+        rejected,
+        jnp.sum(used),
+    )
+
+
+def _outputs(model, ts, ys, approach, contacts, result, t_final, steps, rejected, n_used):
+    n = model.n_coordinates
+    q, qd = ys[:, :n], ys[:, n:]
+    valid = jnp.isfinite(ys).all(axis=1)
+    safe_q = jnp.where(valid[:, None], q, model.q0)
+    safe_qd = jnp.where(valid[:, None], qd, model.qd0)
+
+    def at(t, q_, qd_, a_):
+        qdd = model.accelerations(t, q_, qd_, a_)
+        drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
+        out = {"qdd": qdd, "drift": drift}
+        if model.bearings:
+            joint = model.bearings[0]
+            loads, cage = joint.ball_loads(t, q_, qd_, model.q0, model.qd0)
+            out.update(ball_loads=loads, cage=cage, bearing_force=joint.force(t, q_, qd_, model.q0, model.qd0))
+        if model.contacts:
+            out["contact_force"] = model.contacts[0].forces(t, q_, qd_, a_[0])[0]
+            out["penetration"] = model.contacts[0].gap(q_, qd_)[0]
+        return out
+
+    o = jax.vmap(at)(ts, safe_q, safe_qd, approach)
+    nan_where_invalid = lambda x: jnp.where(valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
+    o = jax.tree_util.tree_map(nan_where_invalid, o)
+    zeros = jnp.zeros_like(ts)
+    return Solution(
+        ts=ts,
+        q=q,
+        qd=qd,
+        qdd=o["qdd"],
+        ball_loads=o.get("ball_loads"),
+        bearing_force=o.get("bearing_force"),
+        cage_angle=o.get("cage"),
+        contact_force=o.get("contact_force", zeros),
+        penetration=o.get("penetration", zeros),
+        approach_speed=approach,
+        drift=o["drift"],
+        contacts=contacts,
+        result=result,
+        t_final=t_final,
+        num_steps=steps,
+        num_rejected_steps=rejected,
+        num_segments=n_used,
+    )
+
+
+def _raise_on_failure(sol: Solution, t1) -> Solution:
+    failed = sol.result != RESULTS.successful
+    if _concrete(failed) and _concrete(sol.t_final):
+        if bool(failed):
+            raise SimulationError(
+                f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
+                f"{RESULTS[sol.result]} Likely causes: a step limit too low for stiff contacts "
+                "(raise max_steps), more contact events than max_segments (raise max_segments), "
+                "or parameters that make the model blow up (check stiffness, clearance and "
+                "masses). Pass throw=False to inspect the partial solution."
+            )
+        return sol
+    return eqx.error_if(sol, failed, "jaxbearing.simulate failed; rerun with throw=False to inspect sol.result and sol.t_final.")
