@@ -37,7 +37,7 @@ For the impact of two spheres (or circular profiles) of radii R_j, R_k (Eqs. 24�
 
 Numerics. K and E come from the arithmetic–geometric mean (fixed 10 steps; quadratic
 convergence gives float64 precision for 1 - m down to 1e-8). The curvature-difference function is
-evaluated in a cancellation-free form (see `_curvature_difference_of`), so it is accurate also at
+evaluated in a cancellation-free form (see `_ellipse`), so it is accurate also at
 kappa -> 1 (the sphere limit, F -> 0). `ellipticity` is solved by safeguarded Newton in log(kappa)
 from the Hamrock–Brewe estimate and differentiated implicitly (`jax.custom_jvp`), so gradients
 are exact and do not depend on the iteration history. Every function is pure, elementwise,
@@ -83,20 +83,44 @@ def _agm(m, m1):
     sequence c_{n+1} = (a_n - b_n)/2 = c_n^2/(4 a_{n+1}), c_0^2 = m. Then (Abramowitz & Stegun
     17.6) E(m) = K(m) (1 - m/2 - m^2 T). Writing g_n = c_n/m (g_1 = 1/(4 a_1),
     g_{n+1} = m g_n^2 / (4 a_{n+1})) avoids every subtraction, so T is exact as m -> 0.
+    A `fori_loop` (not unrolled) keeps compilation cheap.
     """
-    a = jnp.ones_like(m)
-    b = jnp.sqrt(m1)
-    t = jnp.zeros_like(m)
-    g = None
-    weight = 1.0
-    for n in range(_AGM_STEPS):
+    a0 = jnp.ones_like(m)
+    b0 = jnp.sqrt(m1)
+    a = 0.5 * (a0 + b0)
+    b = jnp.sqrt(a0 * b0)
+    g = 1.0 / (4.0 * a)
+    t = g * g
+
+    def step(_, state):
+        a, b, g, t, weight = state
         a_next = 0.5 * (a + b)
-        b = jnp.sqrt(a * b)
-        g = 1.0 / (4.0 * a_next) if n == 0 else m * g * g / (4.0 * a_next)
-        t = t + weight * g * g
-        weight *= 2.0
-        a = a_next
+        g = m * g * g / (4.0 * a_next)
+        return a_next, jnp.sqrt(a * b), g, t + weight * g * g, 2.0 * weight
+
+    a, _, _, t, _ = jax.lax.fori_loop(1, _AGM_STEPS, step, (a, b, g, t, jnp.full_like(m, 2.0)))
     return jnp.pi / (2.0 * a), t
+
+
+@jax.custom_jvp
+def _elliptic_pair(m):
+    k, t = _agm(m, 1.0 - m)
+    return k, k * (1.0 - 0.5 * m - m * m * t)
+
+
+@_elliptic_pair.defjvp
+def _elliptic_pair_jvp(primals, tangents):
+    # dK/dm = (E - (1-m) K) / (2 m (1-m)) = K (1/2 - m T) / (2 (1-m)),
+    # dE/dm = (E - K) / (2 m) = -K (1/2 + m T) / 2   (DLMF 19.4.1, no 0/0 at m = 0).
+    (m,), (dm,) = primals, tangents
+    k, t = _agm(m, 1.0 - m)
+    e = k * (1.0 - 0.5 * m - m * m * t)
+    dk = k * (0.5 - m * t) / (2.0 * (1.0 - m))
+    de = -0.5 * k * (0.5 + m * t)
+    return (k, e), (dk * dm, de * dm)
+
+
+_elliptic_integrals = jax.jit(_elliptic_pair)
 
 
 def elliptic_integrals(m):
@@ -105,27 +129,29 @@ def elliptic_integrals(m):
     K(m) = int_0^{pi/2} (1 - m sin^2 t)^(-1/2) dt,  E(m) = int_0^{pi/2} (1 - m sin^2 t)^(1/2) dt
     (scipy's ``ellipk``/``ellipe`` convention), by the arithmetic–geometric mean with a fixed
     number of steps: K = pi / (2 AGM(1, sqrt(1 - m))), E = K (1 - sum_n 2^(n-1) c_n^2).
-    Differentiable (including at m = 0). Dimensionless.
+    Derivatives in closed form (DLMF 19.4.1), finite at m = 0. Dimensionless.
     """
-    m = _checks.as_float(m)
-    k, t = _agm(m, 1.0 - m)
-    return k, k * (1.0 - 0.5 * m - m * m * t)
+    return _elliptic_integrals(_checks.as_float(m))
 
 
-def _k_e_f(m, m1):
-    """K(m), E(m) and the curvature difference F(m) of an ellipse with kappa^2 = 1/m1."""
+def _ellipse(log_kappa):
+    """Elliptic integrals and Harris' curvature difference of an ellipse, u = log(kappa) >= 0.
+
+    Returns (K, E, T, F, dF/du) with m = 1 - 1/kappa^2 (formed without cancellation) and
+
+        F = ((2 - m) E - 2 (1 - m) K) / (m E) = m K P / E,   P = 1/2 - (2 - m) T,
+        dF/dm = K (3 E (1/2 + m T) - P (3 E - K)) / (2 E^2),   dm/du = 2 (1 - m),
+
+    (T from `_agm`), free of 0/0 in the sphere limit u -> 0, where F ~ 3u/4.
+    """
+    m1 = jnp.exp(-2.0 * log_kappa)  # 1/kappa^2
+    m = -jnp.expm1(-2.0 * log_kappa)  # 1 - 1/kappa^2
     k, t = _agm(m, m1)
     e = k * (1.0 - 0.5 * m - m * m * t)
-    # F = ((2 - m) E - 2 (1 - m) K) / (m E) = m K (1/2 - (1 + m1) T) / E, no 0/0 at m = 0.
-    f = m * k * (0.5 - (1.0 + m1) * t) / e
-    return k, e, f
-
-
-def _curvature_difference_of(log_kappa):
-    """F(rho) as a function of u = log(kappa) >= 0 (Harris Eq. 6.26), exact at u = 0."""
-    m1 = jnp.exp(-2.0 * log_kappa)  # 1/kappa^2
-    m = -jnp.expm1(-2.0 * log_kappa)  # 1 - 1/kappa^2 without cancellation
-    return _k_e_f(m, m1)[2]
+    p = 0.5 - (1.0 + m1) * t
+    f = m * k * p / e
+    dfdm = k * (3.0 * e * (0.5 + m * t) - p * (3.0 * e - k)) / (2.0 * e * e)
+    return k, e, t, f, 2.0 * m1 * dfdm
 
 
 # --------------------------------------------------------------------------------------------
@@ -166,6 +192,16 @@ def _material_rules(youngs_name, youngs, poisson_name, poisson):
     ]
 
 
+@jax.jit
+def _curvature_sums(d, dm, fi, fo, alpha):
+    gamma = d * jnp.cos(alpha) / dm
+    gi = 2.0 * gamma / (1.0 - gamma)
+    go = 2.0 * gamma / (1.0 + gamma)
+    den_i = 4.0 - 1.0 / fi + gi
+    den_o = 4.0 - 1.0 / fo - go
+    return den_i / d, (1.0 / fi + gi) / den_i, den_o / d, (1.0 / fo - go) / den_o
+
+
 def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle=0.0):
     """Curvature sums and differences of the inner and outer ball–raceway contacts (Harris).
 
@@ -177,23 +213,19 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
         F_o = (1/f_o - 2 gamma/(1 + gamma)) / (4 - 1/f_o - 2 gamma/(1 + gamma)).
 
     Args:
-        ball_diameter: D [m]. pitch_diameter: d_m [m] (> D).
-        groove_inner, groove_outer: f_i, f_o (> 0.5). contact_angle: alpha [rad], 0 for radial.
+        ball_diameter: D [m] (> 0). pitch_diameter: d_m [m] (> D).
+        groove_inner, groove_outer: f_i, f_o (> 0.5). contact_angle: alpha [rad] in [0, pi/2),
+            0 for a radially loaded deep-groove bearing.
 
     Returns:
         (sum_rho_inner [1/m], F_inner [-], sum_rho_outer [1/m], F_outer [-]).
     """
-    d, dm, fi, fo, alpha = (
+    args = tuple(
         _checks.as_float(v)
         for v in (ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle)
     )
-    _checks.raise_if_concrete(_geometry_rules(d, dm, fi, fo, alpha))
-    gamma = d * jnp.cos(alpha) / dm
-    gi = 2.0 * gamma / (1.0 - gamma)
-    go = 2.0 * gamma / (1.0 + gamma)
-    den_i = 4.0 - 1.0 / fi + gi
-    den_o = 4.0 - 1.0 / fo - go
-    return den_i / d, (1.0 / fi + gi) / den_i, den_o / d, (1.0 / fo - go) / den_o
+    _checks.raise_if_concrete(_geometry_rules(*args))
+    return _curvature_sums(*args)
 
 
 # --------------------------------------------------------------------------------------------
@@ -204,25 +236,27 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
 def _solve_log_kappa(f_target):
     """Safeguarded Newton for u = log(kappa): F(u) = f_target, u in [0, log 1e4].
 
-    F is increasing in u with F(0) = 0 (convex near 0, concave beyond); the bracket [lo, hi] is updated from the sign of the
-    residual and a Newton step that leaves it is replaced by bisection. Start: Hamrock & Brewe
-    (1983), kappa ~ 1.0339 (R_y/R_x)^0.636 with R_y/R_x = (1 + F)/(1 - F).
+    F is increasing in u with F(0) = 0 (convex near 0, concave beyond); the bracket [lo, hi]
+    is updated from the sign of the residual and a Newton step that leaves it is replaced by
+    bisection. Start: Hamrock & Brewe (1983), kappa ~ 1.0339 (R_y/R_x)^0.636 with
+    R_y/R_x = (1 + F)/(1 - F); in the sphere limit F ~ 3u/4 instead. Five steps reach 1e-10
+    for 0 <= F <= 0.9999; the twelve used leave only rounding (kappa is conditioned like
+    eps/(1 - F)). For F >= 1 - 2e-7 kappa saturates at 1e4; F < 0 gives kappa = 1.
     """
     f_safe = jnp.clip(f_target, 0.0, 1.0 - 1e-12)
     ratio = (1.0 + f_safe) / (1.0 - f_safe)
     lo = jnp.zeros_like(f_target)
     hi = jnp.full_like(f_target, _LOG_KAPPA_MAX)
-    # Hamrock–Brewe is poor in the sphere limit (kappa -> 1.0339 as F -> 0); there F ~ 3u/4.
     u_hb = jnp.log(1.0339) + 0.636 * jnp.log(ratio)
     u0 = jnp.clip(jnp.where(f_safe < 0.05, 4.0 * f_safe / 3.0, u_hb), lo, hi)
 
     def step(_, state):
         u, lo, hi = state
-        f, df = jax.jvp(_curvature_difference_of, (u,), (jnp.ones_like(u),))
+        _, _, _, f, dfdu = _ellipse(u)
         r = f - f_target
         lo = jnp.where(r <= 0.0, u, lo)
         hi = jnp.where(r >= 0.0, u, hi)
-        u_newton = u - r / df
+        u_newton = u - r / dfdu
         inside = (u_newton >= lo) & (u_newton <= hi)
         u_next = jnp.where(inside, u_newton, 0.5 * (lo + hi))
         u_next = jnp.where(r == 0.0, u, u_next)
@@ -232,29 +266,42 @@ def _solve_log_kappa(f_target):
     return u
 
 
+def _deflection_of(log_kappa, k, e):
+    # delta* = (2K/pi) (pi / (2 kappa^2 E))^(1/3), with 1/kappa^2 = exp(-2u).
+    return (2.0 * k / jnp.pi) * jnp.cbrt(jnp.pi * jnp.exp(-2.0 * log_kappa) / (2.0 * e))
+
+
 @jax.custom_jvp
-def _ellipticity(f):
-    return jnp.exp(_solve_log_kappa(f))
+def _contact_shape(f):
+    """(log kappa, delta*) of the contact ellipse for the curvature difference f."""
+    u = _solve_log_kappa(f)
+    k, e, _, _, _ = _ellipse(u)
+    return u, _deflection_of(u, k, e)
 
 
-@_ellipticity.defjvp
-def _ellipticity_jvp(primals, tangents):
+@_contact_shape.defjvp
+def _contact_shape_jvp(primals, tangents):
+    # Implicit function theorem on F(u) = f: du/df = 1 / (dF/du). Then, with
+    # dK/du = K (1/2 - m T) and dE/du = -(1 - m) K (1/2 + m T) (chain rule through m(u)),
+    # dlog(delta*)/du = dlog(K)/du - 2/3 - dlog(E)/du / 3, which vanishes at u = 0.
     (f,), (df,) = primals, tangents
-    kappa = _ellipticity(f)
-    # Implicit function theorem: dkappa/dF = kappa / (dF/du), u = log(kappa).
-    _, dfdu = jax.jvp(_curvature_difference_of, (jnp.log(kappa),), (jnp.ones_like(kappa),))
-    return kappa, kappa * df / dfdu
+    u, delta = _contact_shape(f)
+    k, e, t, _, dfdu = _ellipse(u)
+    m1 = jnp.exp(-2.0 * u)
+    m = -jnp.expm1(-2.0 * u)
+    du = df / dfdu
+    dlog_delta = (0.5 - m * t) - 2.0 / 3.0 + m1 * k * (0.5 + m * t) / (3.0 * e)
+    return (u, delta), (du, delta * dlog_delta * du)
 
 
 def _curvature_difference_rules(f):
     v = jnp.asarray(f)
-    return [
-        (
-            (v < 0.0) | (v >= 1.0),
-            "curvature_difference F(rho) must lie in [0, 1)",
-            f,
-        )
-    ]
+    return [((v < 0.0) | (v >= 1.0), "curvature_difference F(rho) must lie in [0, 1)", f)]
+
+
+@jax.jit
+def _ellipticity(f):
+    return jnp.exp(_contact_shape(f)[0])
 
 
 def ellipticity(curvature_difference):
@@ -269,21 +316,33 @@ def ellipticity(curvature_difference):
     return _ellipticity(f)
 
 
+@jax.jit
+def _dimensionless_deflection(f):
+    return _contact_shape(f)[1]
+
+
 def dimensionless_deflection(curvature_difference):
     """Dimensionless contact deflection delta* (Harris Eq. 6.41; paper Eq. 10).
 
     delta* = (2 K(m) / pi) * (pi / (2 kappa^2 E(m)))^(1/3), kappa = ellipticity(F),
-    m = 1 - 1/kappa^2; delta* = 1 for a circular contact (F = 0). Dimensionless.
+    m = 1 - 1/kappa^2; delta* = 1 for a circular contact (F = 0). Args: curvature_difference
+    F(rho) in [0, 1). Dimensionless.
     """
-    kappa = ellipticity(curvature_difference)
-    m1 = 1.0 / (kappa * kappa)
-    k, e, _ = _k_e_f(1.0 - m1, m1)
-    return (2.0 * k / jnp.pi) * jnp.cbrt(jnp.pi / (2.0 * kappa * kappa * e))
+    f = _checks.as_float(curvature_difference)
+    _checks.raise_if_concrete(_curvature_difference_rules(f))
+    return _dimensionless_deflection(f)
 
 
 # --------------------------------------------------------------------------------------------
 # Stiffness constants
 # --------------------------------------------------------------------------------------------
+
+
+@jax.jit
+def _race_stiffness(rho, f, e, nu):
+    e_prime = e / (1.0 - nu * nu)
+    delta_star = _contact_shape(f)[1]
+    return 2.0 * jnp.sqrt(2.0) * e_prime / (3.0 * jnp.sqrt(rho)) * delta_star**-1.5
 
 
 def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio):
@@ -292,7 +351,7 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
     K = 2 sqrt(2) E' / (3 sqrt(sum_rho)) * delta*^(-3/2),  E' = E / (1 - nu^2).
 
     Args: sum_rho [1/m] (> 0), curvature_difference F(rho) in [0, 1), youngs_modulus E [Pa],
-    poisson_ratio nu in (0, 0.5). Returns K [N/m^1.5] (Q = K delta^1.5).
+    poisson_ratio nu in (0, 0.5). Returns K [N/m^1.5] (load Q = K delta^1.5).
     """
     rho, f, e, nu = (
         _checks.as_float(v) for v in (sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
@@ -302,9 +361,12 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
         + _curvature_difference_rules(f)
         + _material_rules("youngs_modulus", e, "poisson_ratio", nu)
     )
-    e_prime = e / (1.0 - nu * nu)
-    delta_star = dimensionless_deflection(f)
-    return 2.0 * jnp.sqrt(2.0) * e_prime / (3.0 * jnp.sqrt(rho)) * delta_star ** (-1.5)
+    return _race_stiffness(rho, f, e, nu)
+
+
+@jax.jit
+def _ball_stiffness(ki, ko):
+    return (ki ** (-2.0 / 3.0) + ko ** (-2.0 / 3.0)) ** -1.5
 
 
 def ball_stiffness(k_inner, k_outer):
@@ -316,7 +378,18 @@ def ball_stiffness(k_inner, k_outer):
     _checks.raise_if_concrete(
         [_checks.positive("k_inner", ki, "N/m^1.5"), _checks.positive("k_outer", ko, "N/m^1.5")]
     )
-    return (ki ** (-2.0 / 3.0) + ko ** (-2.0 / 3.0)) ** (-1.5)
+    return _ball_stiffness(ki, ko)
+
+
+@jax.jit
+def _bearing_stiffness(d, dm, fi, fo, e, nu, alpha):
+    rho_i, f_i, rho_o, f_o = _curvature_sums(d, dm, fi, fo, alpha)
+    # Both contacts in one (stacked) solve: half the program to compile.
+    k_io = _race_stiffness(
+        jnp.stack([rho_i, rho_o]), jnp.stack([f_i, f_o]), e[None, ...], nu[None, ...]
+    )
+    k_i, k_o = k_io[0], k_io[1]
+    return k_i, k_o, _ball_stiffness(k_i, k_o)
 
 
 def bearing_stiffness(
@@ -334,13 +407,13 @@ def bearing_stiffness(
         ball_diameter: D [m] (> 0). pitch_diameter: d_m [m] (> D).
         groove_inner, groove_outer: raceway groove curvature ratios f = r/D (> 0.5).
         youngs_modulus: E [Pa] (> 0). poisson_ratio: nu in (0, 0.5). Balls and rings share them.
-        contact_angle: alpha [rad], 0 for a deep-groove bearing under radial load.
+        contact_angle: alpha [rad] in [0, pi/2), 0 for a deep-groove bearing under radial load.
 
     Returns:
         (K_i, K_o, K_b) [N/m^1.5]: inner contact, outer contact, and one ball (both in series).
 
     Example: SKF 98205 (D = 8.7 mm, d_m = 37.9 mm, steel) with f_i = 0.5219, f_o = 0.5194 gives
-    the paper's K_i = 2.57e10, K_o = 2.86e10, K_b = 9.57e9 N/m^1.5.
+    K_i = 2.569e10, K_o = 2.861e10, K_b = 9.576e9 N/m^1.5 (paper: 2.57e10, 2.86e10, 9.57e9).
     """
     d, dm, fi, fo, e, nu, alpha = (
         _checks.as_float(v)
@@ -358,10 +431,14 @@ def bearing_stiffness(
         _geometry_rules(d, dm, fi, fo, alpha)
         + _material_rules("youngs_modulus", e, "poisson_ratio", nu)
     )
-    rho_i, f_i, rho_o, f_o = curvature_sums(d, dm, fi, fo, alpha)
-    k_i = race_stiffness(rho_i, f_i, e, nu)
-    k_o = race_stiffness(rho_o, f_o, e, nu)
-    return k_i, k_o, ball_stiffness(k_i, k_o)
+    return _bearing_stiffness(d, dm, fi, fo, e, nu, alpha)
+
+
+@jax.jit
+def _impact_stiffness(rj, rk, ej, nj, ek, nk):
+    h_j = (1.0 - nj * nj) / (jnp.pi * ej)
+    h_k = (1.0 - nk * nk) / (jnp.pi * ek)
+    return 4.0 / (3.0 * jnp.pi * (h_j + h_k)) * jnp.sqrt(rj * rk / (rj + rk))
 
 
 def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poisson_k=None):
@@ -370,7 +447,8 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
     K_d = 4 / (3 pi (h_j + h_k)) * sqrt(R_j R_k / (R_j + R_k)),  h_u = (1 - nu_u^2) / (pi E_u).
 
     Args: radius_j, radius_k: R [m] (> 0); youngs_j, youngs_k: E [Pa] (> 0); poisson_j,
-    poisson_k: nu in (0, 0.5). Body k defaults to body j's material. Returns K_d [N/m^1.5].
+    poisson_k: nu in (0, 0.5). Body k defaults to body j's material. Returns K_d [N/m^1.5]
+    (1.07e10 for two steel spheres of R = 0.01 m, the paper's impact).
     """
     youngs_k = youngs_j if youngs_k is None else youngs_k
     poisson_k = poisson_j if poisson_k is None else poisson_k
@@ -382,6 +460,4 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
         + _material_rules("youngs_j", ej, "poisson_j", nj)
         + _material_rules("youngs_k", ek, "poisson_k", nk)
     )
-    h_j = (1.0 - nj * nj) / (jnp.pi * ej)
-    h_k = (1.0 - nk * nk) / (jnp.pi * ek)
-    return 4.0 / (3.0 * jnp.pi * (h_j + h_k)) * jnp.sqrt(rj * rk / (rj + rk))
+    return _impact_stiffness(rj, rk, ej, nj, ek, nk)

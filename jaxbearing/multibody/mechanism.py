@@ -5,8 +5,8 @@
 
 M = diag(m, m, J) per body is diagonal, so the system is solved by its Schur complement
 S = Phi_q M^-1 Phi_q^T (a small SPD matrix, Cholesky), never as the full augmented matrix.
-Phi_q, Phi_t and gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt come from forward-mode
-derivatives of the joints' position equations.
+Each joint supplies Phi, Phi_q, Phi_t and gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt
+in closed form.
 """
 
 from __future__ import annotations
@@ -94,9 +94,9 @@ class Mechanism(eqx.Module):
             for body in _bodies_of(element):
                 if body >= len(self.bodies) or body < -1:
                     raise ValueError(f"{type(element).__name__} refers to body {body}, which does not exist.")
-        if self.n_constraints >= n:
+        if self.n_constraints > n:
             raise ValueError(
-                f"{self.n_constraints} constraint equations leave no freedom to {n} coordinates."
+                f"{self.n_constraints} constraint equations over-determine {n} coordinates."
             )
 
     # -- structure -------------------------------------------------------------------------
@@ -148,20 +148,23 @@ class Mechanism(eqx.Module):
         """Phi(q, t), (n_constraints,)."""
         return jnp.concatenate([joint(q, t) for joint in self.joints])
 
+    def constraint_jacobian(self, q, t) -> jax.Array:
+        """Phi_q, (n_constraints, n_coordinates)."""
+        return jnp.concatenate([joint.jacobian(q, t) for joint in self.joints])
+
     def constraint_velocity(self, q, qd, t) -> jax.Array:
         """Phi_dot = Phi_q q_dot + Phi_t."""
-        return jax.jvp(lambda q_, t_: self.constraints(q_, t_), (q, t), (qd, jnp.ones_like(t)))[1]
+        return self.constraint_jacobian(q, t) @ qd + jnp.concatenate(
+            [joint.time_derivative(q, t) for joint in self.joints]
+        )
 
     def constraint_rhs(self, q, qd, t):
         """Phi_q and the right-hand side gamma - 2 alpha Phi_dot - beta^2 Phi of Eq. 36."""
-        t = jnp.asarray(t, q.dtype)
-        jac = jax.jacfwd(self.constraints)(q, t)
+        jac = self.constraint_jacobian(q, t)
         phi = self.constraints(q, t)
-        phi_dot, second = jax.jvp(
-            lambda q_, t_: self.constraint_velocity(q_, qd, t_), (q, t), (qd, jnp.ones_like(t))
-        )
-        # second = d/dt Phi_dot at zero acceleration = qd' Phi_qq qd + 2 Phi_qt qd + Phi_tt = -gamma
-        rhs = -second - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
+        phi_dot = jac @ qd + jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
+        gamma = jnp.concatenate([joint.gamma(q, qd, t) for joint in self.joints])
+        rhs = gamma - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
         return jac, rhs
 
     # -- forces and accelerations ------------------------------------------------------------

@@ -1,0 +1,264 @@
+"""The ``jaxbearing xu2014`` command (jaxbearing.cli) and its helpers (jaxbearing.report)."""
+
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from jaxbearing import cli, report
+from jaxbearing.cases.xu2014 import TABLE5, TABLE5_TIMES
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ---------------------------------------------------------------------------------------------
+# Hand-made Solution-like inputs
+# ---------------------------------------------------------------------------------------------
+
+
+def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segments=6):
+    """A Solution-like namespace for the xu2014 layout (4 bodies x 3 coordinates)."""
+    ts = np.asarray(ts, dtype=float)
+    T = ts.size
+    q = np.zeros((T, 12))
+    q[:, 6] = 0.1 + ts  # slider x
+    q[:, 9] = 0.18  # target x
+    qd = np.zeros((T, 12))
+    qd[:, 6] = 1.0
+    qdd = np.zeros((T, 12))
+    loads = np.zeros((T, 8)) if ball_loads is None else np.asarray(ball_loads, dtype=float)
+    force = np.stack([3.0 * np.ones(T), 4.0 * np.ones(T)], axis=1)  # |F| = 5 N
+    times = np.full(max_segments, np.nan)
+    speeds = np.full(max_segments, np.nan)
+    valid = np.zeros(max_segments, bool)
+    for slot, (t, v) in onsets:
+        times[slot], speeds[slot], valid[slot] = t, v, True
+    return SimpleNamespace(
+        ts=ts,
+        q=q,
+        qd=qd,
+        qdd=qdd,
+        ball_loads=loads,
+        bearing_force=force,
+        cage_angle=np.zeros(T),
+        contact_force=np.zeros(T)
+        if contact_force is None
+        else np.asarray(contact_force, dtype=float),
+        penetration=np.zeros(T),
+        drift=np.linspace(0.0, 1e-11, T),
+        contacts=SimpleNamespace(
+            time=times, approach_speed=speeds, index=np.where(valid, 0, -1), valid=valid
+        ),
+        t_final=ts[-1],
+        num_steps=100,
+        num_rejected_steps=7,
+        num_segments=3,
+    )
+
+
+def test_series_names_and_values():
+    sol = fake_solution([0.0, 0.1, 0.2])
+    data = report.series(sol)
+    assert list(data)[:7] == [
+        "t",
+        "slider_x",
+        "slider_v",
+        "slider_a",
+        "target_x",
+        "target_v",
+        "target_a",
+    ]
+    assert report.ball_keys(data) == [f"ball{i}" for i in range(1, 9)]
+    np.testing.assert_allclose(data["slider_x"], [0.1, 0.2, 0.3])
+    np.testing.assert_allclose(data["bearing_f"], 5.0)
+    assert report.csv_columns(data)[:3] == ["t_s", "slider_x_m", "slider_v_m_per_s"]
+
+
+def test_peak_over_window():
+    ts = np.linspace(0.0, 0.1, 11)  # 0, 0.01, ..., 0.1
+    force = np.zeros(11)
+    force[1] = 900.0  # start-up transient at 0.01 s: outside the window
+    force[6] = 300.0  # 0.06 s
+    force[7] = np.nan  # a failed sample is ignored
+    data = report.series(fake_solution(ts, contact_force=force))
+    assert report.peak(data, "contact_force") == (900.0, pytest.approx(0.01), "contact_force")
+    p = report.peak(data, "contact_force", t_min=0.04)
+    assert (p.value, p.time) == (300.0, pytest.approx(0.06))
+    p = report.peak(data, "contact_force", 0.07, 0.1)
+    assert p.value == 0.0 and p.time == pytest.approx(0.08)
+    p = report.peak(data, "contact_force", 0.2)  # empty window
+    assert math.isnan(p.value) and math.isnan(p.time) and p.key is None
+
+
+def test_peak_over_balls():
+    ts = np.linspace(0.0, 0.1, 11)
+    loads = np.zeros((11, 8))
+    loads[2, 0] = 500.0  # ball 1 at 0.02 s
+    loads[5, 3] = 120.0  # ball 4 at 0.05 s
+    loads[9, 6] = 80.0  # ball 7 at 0.09 s
+    sol = fake_solution(ts, ball_loads=loads)
+    assert report.peak(sol, "ball_loads") == (500.0, pytest.approx(0.02), "ball1")
+    assert report.peak(sol, "ball_loads", t_min=0.04) == (120.0, pytest.approx(0.05), "ball4")
+    assert report.peak(sol, ["ball7", "ball8"]) == (80.0, pytest.approx(0.09), "ball7")
+
+
+def test_onsets_from_padded_contacts():
+    sol = fake_solution([0.0, 1.0], onsets=[(2, (0.095, 0.5)), (0, (0.0913, 2.2))])
+    times, speeds = report.onsets(sol)
+    np.testing.assert_allclose(times, [0.0913, 0.095])
+    np.testing.assert_allclose(speeds, [2.2, 0.5])
+    assert report.first_contact(sol) == (0.0913, 2.2)
+    assert all(math.isnan(x) for x in report.first_contact(fake_solution([0.0, 1.0])))
+
+
+def test_contact_intervals():
+    ts = np.arange(10) * 1e-3
+    force = np.array([0, 5, 7, 0, 0, 0, 2, 9, 4, 1.0])
+    intervals = report.contact_intervals(report.series(fake_solution(ts, contact_force=force)))
+    assert intervals == [(1e-3, 2e-3, 7.0), (6e-3, pytest.approx(9e-3), 9.0)]
+
+
+def test_table5_interpolates_and_compares():
+    ts = np.linspace(0.0, 0.2, 21)  # 10 ms steps: 0.04 ... 0.12 are samples, odd values are not
+    loads = np.outer(ts, np.arange(1, 9))  # ball r: r * t [N]
+    sim = report.table5(fake_solution(ts, ball_loads=loads))
+    assert sim.shape == (8, 5)
+    np.testing.assert_allclose(sim, np.outer(np.arange(1, 9), TABLE5_TIMES), rtol=1e-12)
+    between = report.table5(fake_solution(ts, ball_loads=loads), times=[0.045, 0.5])
+    np.testing.assert_allclose(between[:, 0], 0.045 * np.arange(1, 9), rtol=1e-12)
+    assert np.isnan(between[:, 1]).all()  # beyond the simulated span
+
+    assert report.table5_rms(TABLE5) == 0.0
+    assert report.table5_mismatches(TABLE5) == 0
+    shifted = TABLE5 + 2.0 * (TABLE5 > 0)  # 2 N more on every loaded entry, none switches
+    n_loaded = int((TABLE5 > 0).sum())
+    assert report.table5_rms(shifted) == pytest.approx(2.0 * math.sqrt(n_loaded / 40))
+    assert report.table5_mismatches(shifted) == 0
+    flipped = TABLE5.copy()
+    flipped[0, 0] = 10.0  # ball 1 loaded where the paper has it free
+    flipped[1, 0] = 0.0  # ball 2 free where the paper has 42.9 N
+    assert report.table5_mismatches(flipped) == 2
+    partial = np.where(np.arange(5) < 3, TABLE5 + 1.0, np.nan)  # a run that stopped before 0.1 s
+    assert report.table5_rms(partial) == pytest.approx(1.0)
+    t5 = report.table5_summary(fake_solution(ts, ball_loads=loads))
+    assert t5["entries_compared"] == 40 and len(t5["simulated_N"]) == 8
+
+
+def test_summarize_is_json_ready(tmp_path):
+    ts = np.linspace(0.0, 0.1, 11)
+    sol = fake_solution(
+        ts, contact_force=np.where(ts > 0.085, 50.0, 0.0), onsets=[(1, (0.0913, 2.2))]
+    )
+    s = report.summarize(sol)
+    assert s["first_contact_time_s"] == 0.0913 and s["contact_count"] == 1
+    assert s["peak_impact_force_N"] == 50.0 and s["peak_bearing_force_N"] == 5.0
+    assert s["num_steps"] == 100 and s["max_drift"] == pytest.approx(1e-11)
+    path = report.write_json(tmp_path / "s.json", {"a": s, "nan": math.nan, "arr": np.arange(2)})
+    loaded = json.loads(path.read_text())
+    assert loaded["nan"] is None and loaded["arr"] == [0, 1]
+    assert "peak impact force" in report.format_summary("with impact", s)
+
+
+def test_write_csv_stride_and_atomic(tmp_path):
+    ts = np.linspace(0.0, 1.0, 11)
+    path = report.write_csv(tmp_path / "x.csv", fake_solution(ts), stride=3)
+    rows = list(csv.reader(path.open()))
+    assert rows[0][0] == "t_s" and rows[0][-1] == "penetration_m" and len(rows[0]) == 20
+    np.testing.assert_allclose([float(r[0]) for r in rows[1:]], [0.0, 0.3, 0.6, 0.9, 1.0])
+    with pytest.raises(RuntimeError), report.atomic_path(path) as tmp:
+        tmp.write_text("half-written")
+        raise RuntimeError("interrupted")
+    assert path.read_text().startswith("t_s,")  # the old file survives
+    assert os.listdir(tmp_path) == ["x.csv"]  # no temp file left
+
+
+# ---------------------------------------------------------------------------------------------
+# The command, in quick settings
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("xu2014")
+    rc = cli.main(["xu2014", "--out", str(out), "--t1", "0.1", "--samples", "5001", "--no-rerun"])
+    return rc, out
+
+
+def test_cli_writes_files(quick_run):
+    rc, out = quick_run
+    assert rc == 0
+    for name in (
+        "with_impact.csv",
+        "without_impact.csv",
+        "summary.json",
+        "fig12_slider_target.png",
+        "fig13_impact_force.png",
+        "fig14_bearing_force.png",
+        "fig15_ball_loads.png",
+    ):
+        assert (out / name).stat().st_size > 1000, name
+    assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
+    with (out / "with_impact.csv").open() as f:
+        header = next(csv.reader(f))
+        n_rows = sum(1 for _ in f)
+    assert header[:2] == ["t_s", "slider_x_m"] and "ball8_N" in header
+    assert n_rows == 5001  # every sample: they are 20 µs apart, coarser than --csv-dt (10 µs)
+
+
+def test_cli_summary(quick_run):
+    _, out = quick_run
+    s = json.loads((out / "summary.json").read_text())
+    imp, free = s["cases"]["with_impact"], s["cases"]["without_impact"]
+    for case in (imp, free):
+        for key in (
+            "first_contact_time_s",
+            "first_contact_approach_speed_m_per_s",
+            "contact_count",
+            "peak_impact_force_N",
+            "peak_bearing_force_N",
+            "peak_ball_load_N",
+            "max_drift",
+            "num_steps",
+            "num_rejected_steps",
+            "wall_first_s",
+        ):
+            assert key in case, key
+        assert case["t_final_s"] == pytest.approx(0.1)
+        assert case["max_drift"] < 1e-8
+    assert 0.090 < imp["first_contact_time_s"] < 0.093
+    assert 1.0 < imp["first_contact_approach_speed_m_per_s"] < 4.0
+    assert imp["contact_count"] >= 2
+    assert 1e3 < imp["peak_impact_force_N"] < 3e4
+    assert imp["peak_bearing_force_N"] > 1e3  # impacts lift the bearing to kN levels
+    assert free["contact_count"] == 0 and free["peak_impact_force_N"] == 0.0
+    assert 100.0 < free["peak_bearing_force_N"] < 600.0
+    t5 = s["table5"]
+    assert np.array(t5["simulated_N"]).shape == (8, 5)
+    assert t5["entries_compared"] == 32  # 0.04 ... 0.1 s: the 0.12 s column is beyond t1
+    assert t5["rms_N"] < 20.0 and t5["loaded_state_mismatches"] <= 3
+
+
+def test_module_entry_point_help():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    for args in (
+        ["-m", "jaxbearing.cli", "xu2014", "--help"],
+        [str(ROOT / "studies" / "xu2014.py"), "--help"],
+    ):
+        done = subprocess.run(
+            [sys.executable, *args],
+            check=False,
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=ROOT,
+            timeout=60,
+        )
+        assert done.returncode == 0, done.stderr
+        assert "--out" in done.stdout
