@@ -138,10 +138,16 @@ def default_solver() -> diffrax.AbstractSolver:
     return diffrax.Tsit5()
 
 
-def kvaerno5(rtol=1e-8, atol=1e-10) -> diffrax.Kvaerno5:
-    """Kvaerno5 with a simplified Newton (VeryChord) at tolerances tied to the step control."""
+def kvaerno5(newton_rtol=1e-4, newton_atol=1e-7) -> diffrax.Kvaerno5:
+    """Kvaerno5, the stiff (ESDIRK) solver, with a loose simplified-Newton iteration.
+
+    The step error control (``simulate``'s rtol, atol) still sets the accuracy; a Newton
+    tolerance as tight as the step tolerance makes the iteration fail at every ball engagement
+    (a force kink) and multiplies rejected steps (measured: 4624 steps for 0.01 s of the paper's
+    case at diffrax's default, 921 at these values).
+    """
     return diffrax.Kvaerno5(
-        root_finder=diffrax.VeryChord(rtol=rtol * 1e-2, atol=atol * 1e-2, norm=optx.max_norm)
+        root_finder=diffrax.VeryChord(rtol=newton_rtol, atol=newton_atol, norm=optx.max_norm)
     )
 
 
@@ -212,6 +218,21 @@ def simulate(
     return sol
 
 
+def _ahead(ts, t_start, t1):
+    """The output times at or after ``t_start`` first, then the earlier ones moved to the end
+    as ``t1`` (never reached by a segment that stops at an event): a segment saves only what
+    lies ahead of it instead of re-saving every earlier time at its start."""
+    k = jnp.searchsorted(ts, t_start, side="left")
+    rolled = jnp.roll(ts, -k)
+    return jnp.where(jnp.arange(ts.shape[0]) < ts.shape[0] - k, jnp.clip(rolled, t_start, t1), t1)
+
+
+def _behind(ys, ts, t_start):
+    """Undo `_ahead` on the saved values."""
+    k = jnp.searchsorted(ts, t_start, side="left")
+    return jnp.roll(ys, k, axis=0)
+
+
 def _concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
@@ -272,7 +293,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
             y_start,
             args=(approach, in_contact),
             saveat=diffrax.SaveAt(
-                subs=[diffrax.SubSaveAt(ts=jnp.clip(ts, t_start, t1)), diffrax.SubSaveAt(t1=True)]
+                subs=[diffrax.SubSaveAt(ts=_ahead(ts, t_start, t1)), diffrax.SubSaveAt(t1=True)]
             ),
             stepsize_controller=controller,
             event=event,
@@ -282,6 +303,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
         )
         (_, t_end), (ys, y_end) = sol.ts, sol.ys
         t_end, y_end = t_end[0], y_end[0]
+        ys = _behind(ys, ts, t_start)
         ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
         hit = sol.result == diffrax.RESULTS.event_occurred
         # outputs of this segment: output times in [t_start, t_end]
