@@ -169,6 +169,7 @@ def simulate(
     max_segments: int = 64,
     throw: bool = True,
     progress: str | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
 ) -> Solution:
     """Integrate the equations of motion (Eq. 36) from ``t0`` to ``t1`` [s].
 
@@ -187,6 +188,10 @@ def simulate(
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label to print progress under, or None.
+        adjoint: how diffrax differentiates each segment: the default
+            `diffrax.RecursiveCheckpointAdjoint()` serves `jax.grad` (reverse mode);
+            `diffrax.ForwardMode()` serves `jax.jacfwd`, the cheaper choice for a few
+            parameters (see `jaxbearing.gradients`).
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):
@@ -212,6 +217,7 @@ def simulate(
         max_steps,
         max_segments,
         progress,
+        diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
     )
     if throw:
         sol = _raise_on_failure(sol, t1)
@@ -238,7 +244,7 @@ def _concrete(x) -> bool:
 
 
 @eqx.filter_jit
-def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, progress):
+def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, progress, adjoint):
     rules = model.violations()
     rules.append(
         (t1 <= t0, "t1 must be greater than t0 [s]", t1)
@@ -300,6 +306,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
             max_steps=max_steps,
             throw=False,
             progress_meter=meter,
+            adjoint=adjoint,
         )
         (_, t_end), (ys, y_end) = sol.ts, sol.ys
         t_end, y_end = t_end[0], y_end[0]

@@ -1,0 +1,122 @@
+"""Scalar metrics of a `Solution`, over a time window (default t >= 0.04 s, after the start-up
+transient in which the rod falls onto the race and rings).
+
+All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
+differentiation transforms:
+
+- the exact peaks (``peak_*``, ``max_*``) are differentiable almost everywhere: their derivative
+  is that of the sample that attains the maximum, which jumps when another sample takes over;
+  fine for sensitivities at one design point, poor for optimisation;
+- the smooth versions (``smooth_*``) replace the maximum by a power mean
+  (sum w x^p / sum w)^(1/p), which lies below the maximum, approaches it as p grows, and is
+  differentiable everywhere: use them as objectives for `jax.grad` and optax. The RMS bearing
+  force is smooth already.
+
+Samples are weighted by the trapezoid rule on ``sol.ts``, so the means do not depend on how the
+output times are spaced. Forces in N, displacements in m.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from .simulate import Solution
+
+T_MIN = 0.04  # [s] start of the default window
+TARGET_X = 9  # coordinate of the target's x in `cases.xu2014` (body 3)
+
+
+def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside."""
+    inside = ts >= t_min
+    if t_max is not None:
+        inside = inside & (ts <= t_max)
+    dt = jnp.diff(ts)
+    w = jnp.zeros_like(ts).at[:-1].add(0.5 * dt).at[1:].add(0.5 * dt)
+    return jnp.where(inside, w, 0.0)
+
+
+def _peak(values, weights):
+    """Max of values (T, ...) over samples with positive weight."""
+    masked = jnp.where(weights.reshape((-1,) + (1,) * (values.ndim - 1)) > 0, values, -jnp.inf)
+    return jnp.max(masked)
+
+
+def _power_mean(values, weights, p):
+    """(sum w x^p / sum w)^(1/p) of non-negative values (T, ...), scaled for overflow safety."""
+    values = values.reshape(values.shape[0], -1)
+    scale = jax.lax.stop_gradient(jnp.maximum(_peak(values, weights), 1e-300))
+    x = values / scale
+    w = weights[:, None] * jnp.ones_like(x)
+    return scale * (jnp.sum(w * x**p) / jnp.sum(w)) ** (1.0 / p)
+
+
+def _bearing_magnitude(sol: Solution):
+    if sol.bearing_force is None:
+        raise ValueError("This solution has no bearing joint.")
+    f = sol.bearing_force
+    return jnp.sqrt(jnp.sum(f * f, axis=-1) + 1e-30)
+
+
+def peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Largest load on any ball [N] in the window."""
+    if sol.ball_loads is None:
+        raise ValueError("This solution has no bearing joint.")
+    return _peak(sol.ball_loads, window(sol.ts, t_min, t_max))
+
+
+def peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window."""
+    return _peak(_bearing_magnitude(sol), window(sol.ts, t_min, t_max))
+
+
+def rms_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Root-mean-square of |F| over the window (time-weighted) [N]. Smooth."""
+    w = window(sol.ts, t_min, t_max)
+    f = sol.bearing_force
+    return jnp.sqrt(jnp.sum(w * jnp.sum(f * f, axis=-1)) / jnp.sum(w))
+
+
+def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Largest normal impact force [N] in the window (sample it finely: impacts last ~100 µs)."""
+    return _peak(sol.contact_force, window(sol.ts, t_min, t_max))
+
+
+def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=TARGET_X) -> jax.Array:
+    """Largest |q_c(t) - q_c(0)| [m] of one coordinate in the window (default: the xu2014 target's x)."""
+    return _peak(jnp.abs(sol.q[:, coordinate] - sol.q[0, coordinate]), window(sol.ts, t_min, t_max))
+
+
+def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+    """Power mean of order p of all ball loads over the window [N]: a differentiable stand-in
+    for `peak_ball_load` (below it; closer as p grows)."""
+    return _power_mean(sol.ball_loads, window(sol.ts, t_min, t_max), p)
+
+
+def smooth_peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+    """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak."""
+    return _power_mean(_bearing_magnitude(sol), window(sol.ts, t_min, t_max), p)
+
+
+def smooth_peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+    """Power mean of order p of the impact force over the window [N]."""
+    return _power_mean(sol.contact_force, window(sol.ts, t_min, t_max), p)
+
+
+STANDARD = {
+    "peak_ball_load": peak_ball_load,
+    "peak_bearing_force": peak_bearing_force,
+    "rms_bearing_force": rms_bearing_force,
+    "peak_impact_force": peak_impact_force,
+    "max_target_displacement": max_target_displacement,
+}
+"""The standard metrics (name -> function of a Solution), used by default in sweeps."""
+
+SMOOTH = {
+    "smooth_peak_ball_load": smooth_peak_ball_load,
+    "smooth_peak_bearing_force": smooth_peak_bearing_force,
+    "rms_bearing_force": rms_bearing_force,
+    "smooth_peak_impact_force": smooth_peak_impact_force,
+}
+"""Differentiable metrics, for gradients and optimisation."""
