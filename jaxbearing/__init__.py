@@ -9,10 +9,11 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 """
 
-from . import cases, laws, multibody
+from . import cases, laws, metrics, multibody, paths
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
+from .tune import TuneResult, sensitivity, tune
 
 __version__ = "0.1.0"
 
@@ -23,11 +24,16 @@ __all__ = [
     "Impact",
     "Mechanism",
     "SimulationError",
+    "TuneResult",
     "Solution",
     "cases",
     "default_solver",
     "kvaerno5",
     "laws",
+    "metrics",
     "multibody",
+    "paths",
+    "sensitivity",
     "simulate",
+    "tune",
 ]

@@ -1,0 +1,40 @@
+"""Parameters named by dotted paths, e.g. ``"bearing.clearance"`` or ``"impact.restitution"``.
+
+A path is read with attribute access from the model (``model.bearing.clearance``); numeric parts
+index tuples (``"contacts.0.impact.restitution"``). `replace` returns a new model through
+`eqx.tree_at`, so values may be traced (vmap, grad) and the original model is unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import equinox as eqx
+
+
+def _step(node, part: str):
+    if part.isdigit():
+        return node[int(part)]
+    return getattr(node, part)
+
+
+def get(model, path: str):
+    """The value at ``path`` in ``model``."""
+    node = model
+    for part in path.split("."):
+        try:
+            node = _step(node, part)
+        except (AttributeError, IndexError, TypeError) as err:
+            raise ValueError(f"Parameter path {path!r} does not exist in the model: {err}") from None
+    return node
+
+
+def replace(model, values: Mapping[str, object]):
+    """A copy of ``model`` with each ``path -> value`` of ``values`` set."""
+    if not values:
+        return model
+    names = list(values)
+    for name in names:
+        get(model, name)  # clear error for a bad path
+    where = lambda m: tuple(get(m, name) for name in names)  # noqa: E731
+    return eqx.tree_at(where, model, tuple(values[name] for name in names))
