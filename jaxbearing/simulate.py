@@ -440,4 +440,5 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
                 "masses). Pass throw=False to inspect the partial solution."
             )
         return sol
-    return eqx.error_if(sol, failed, "jaxbearing.simulate failed; rerun with throw=False to inspect sol.result and sol.t_final.")
+    # under jit/vmap/grad: the failing member's own message (see `RESULTS`)
+    return sol.result.error_if(sol, failed)

@@ -52,7 +52,7 @@ def identification(t1, samples, steps, lr):
         loss,
         start,
         list(TRUE),
-        optax.adam(lr),
+        optax.adam(optax.cosine_decay_schedule(lr, steps)),
         steps,
         bounds={"bearing.clearance": (5e-6, 80e-6), "impact.restitution": (0.3, 1.0)},
         callback=lambda k, v, p: print(f"  identification step {k:3d}: loss {v:.3e}  {p}", flush=True),
@@ -88,7 +88,7 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
-    ident = identification(t1, samples, steps_id, 0.05)
+    ident = identification(t1, samples, steps_id, 0.02)
     errors = {k: ident.values[k] / TRUE[k] - 1.0 for k in TRUE}
     print(f"identification: {ident.values}, relative errors {errors}, "
           f"{time.perf_counter() - start:.0f} s", flush=True)
