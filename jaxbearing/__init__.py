@@ -9,7 +9,7 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 """
 
-from . import cases, laws, metrics, multibody, paths
+from . import cases, laws, life, metrics, multibody, paths
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
@@ -30,6 +30,7 @@ __all__ = [
     "default_solver",
     "kvaerno5",
     "laws",
+    "life",
     "metrics",
     "multibody",
     "paths",

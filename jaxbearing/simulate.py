@@ -2,7 +2,8 @@
 
 State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
 (Lankarani–Nikravesh, Eq. 23), so the solve is split into segments at contact events: a
-`diffrax.Event` locates, with a root finder, the time at which a penetration crosses zero
+`diffrax.Event` locates, by bisection on the step's interpolant (robust also for grazing
+contacts, where Newton stalls), the time at which a penetration crosses zero
 (onset) or falls below -`SEPARATION_OFFSET` (separation); the next segment restarts there with the
 approach speed recorded at the onset. Segments run in a `lax.scan` of fixed length
 ``max_segments`` (reverse- and forward-mode differentiable, vmappable); finished members idle in
@@ -263,22 +264,23 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
         q, qd = y[:n], y[n:]
         return jnp.concatenate([qd, model.accelerations(t, q, qd, approach)])
 
-    def make_cond(c):
-        contact = model.contacts[c]
+    def event_values(t, y, in_contact):
+        """One value per contact, negative until its next event: the penetration while apart
+        (onset at 0), -(penetration + SEPARATION_OFFSET) while touching, -1 while switched off."""
+        penetration, _ = model.contact_gaps(y[:n], y[n:])
+        value = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
+        active = jnp.stack([c.active(t) for c in model.contacts])
+        return jnp.where(active, value, -1.0)
 
-        def cond(t, y, args, **kwargs):
-            _, in_contact = args
-            penetration = contact.gap(y[:n], y[n:])[0]
-            value = jnp.where(in_contact[c], -(penetration + SEPARATION_OFFSET), penetration)
-            return jnp.where(contact.active(t), value, -1.0)
-
-        return cond
+    def first_event(t, y, args, **kwargs):
+        # every value starts a segment negative, so the maximum crosses zero at the first event
+        return jnp.max(event_values(t, y, args[1]))
 
     event = None
     if n_contacts:
         event = diffrax.Event(
-            [make_cond(c) for c in range(n_contacts)],
-            root_finder=optx.Newton(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
+            first_event,
+            root_finder=optx.Bisection(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
             direction=True,
         )
     term = diffrax.ODETerm(vector_field)
@@ -319,7 +321,8 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
         out_approach = jnp.where(mine[:, None], approach[None, :], out_approach)
         # contact bookkeeping at the event
         if n_contacts:
-            triggered = jnp.stack(sol.event_mask) & hit & ~done
+            values = event_values(t_end, y_end, in_contact)
+            triggered = (jnp.arange(n_contacts) == jnp.argmax(values)) & hit & ~done
             _, rate = model.contact_gaps(y_end[:n], y_end[n:])
             onset = triggered & ~in_contact
             approach = jnp.where(onset, rate, approach)
