@@ -123,6 +123,7 @@ def run_xu2014(args) -> int:
 
         data = report.series(sol)
         s = report.summarize(sol, report.PEAK_FROM)
+        s.update(report.life_summary(sol, model, report.PEAK_FROM))
         s["wall_first_s"] = wall_first
         s["wall_second_s"] = wall_second
         summary["cases"][key] = s

@@ -273,6 +273,24 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     }
 
 
+def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
+    """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
+    with the case's groove ratios, in millions of relative revolutions and hours."""
+    from . import life
+    from .cases.xu2014 import GROOVE_INNER, GROOVE_OUTER
+
+    iso = life.iso_life(sol, model, t_min=t_min)
+    lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
+    return {
+        "load_rating_N": float(iso.load_rating),
+        "equivalent_load_N": float(iso.equivalent_load),
+        "l10_iso_mrev": float(iso.l10),
+        "l10_iso_hours": float(iso.l10_hours),
+        "l10_lp_mrev": float(lp.l10),
+        "l10_lp_hours": float(lp.l10_hours),
+    }
+
+
 # ---------------------------------------------------------------------------------------------
 # Text
 # ---------------------------------------------------------------------------------------------
@@ -313,6 +331,11 @@ def format_summary(label: str, s: Mapping) -> str:
         f"  steps                {s['num_steps']} ({s['num_rejected_steps']} rejected), "
         f"{s['num_segments']} segments"
     )
+    if "l10_iso_hours" in s:
+        lines.append(
+            f"  bearing life L10     ISO 281 {s['l10_iso_hours']:.3g} h (C_r {s['load_rating_N']:.0f} N, "
+            f"P {s['equivalent_load_N']:.1f} N), Lundberg-Palmgren {s['l10_lp_hours']:.3g} h"
+        )
     if "wall_first_s" in s:
         second = s.get("wall_second_s")
         lines.append(

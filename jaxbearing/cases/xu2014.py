@@ -27,6 +27,8 @@ from ..params import BallBearing, Impact
 CRANK_LENGTH = 0.050  # [m]
 ROD_LENGTH = 0.120  # [m]
 SPRING_FREE_LENGTH = 0.1  # [m], any positive value: the spring is unstressed at the start
+GROOVE_INNER = 0.5219  # raceway groove curvature ratios f = r/D that reproduce the paper's K_i, K_o
+GROOVE_OUTER = 0.5194
 
 # Paper Table 5: ball loads [N] without impact, kinematic cage; rows ball 1..8, columns TABLE5_TIMES.
 TABLE5_TIMES = np.array([0.04, 0.06, 0.08, 0.10, 0.12])
@@ -54,8 +56,8 @@ def skf98205(
         pitch_diameter=37.9e-3,
         ball_diameter=8.7e-3,
         n_balls=8,
-        groove_inner=0.5219,
-        groove_outer=0.5194,
+        groove_inner=GROOVE_INNER,
+        groove_outer=GROOVE_OUTER,
         clearance=clearance,
         damping=damping,
         youngs_modulus=207e9,
