@@ -1,0 +1,37 @@
+"""Every study runs in its quick mode and writes its outputs."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parent.parent
+TUNE = ROOT / "studies" / "tune_clearance.py"
+OTHER_STUDIES = sorted(p for p in (ROOT / "studies").glob("*.py") if p != TUNE)
+
+
+def run(script, *args):
+    result = subprocess.run(
+        [sys.executable, str(script), *args], cwd=ROOT, capture_output=True, text=True, timeout=900
+    )
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
+    return result.stdout
+
+
+@pytest.mark.parametrize("script", OTHER_STUDIES, ids=lambda p: p.name)
+def test_study_runs_quick(script, tmp_path):
+    run(script, "--quick", "--out", str(tmp_path))
+    assert any(tmp_path.iterdir())
+
+
+@pytest.mark.slow  # ~150 s: two reverse-mode compilations of the paper's case
+def test_tune_study_outputs(tmp_path):
+    run(TUNE, "--quick", "--out", str(tmp_path))
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert (tmp_path / "convergence.png").stat().st_size > 10_000
+    assert len(summary["identification"]["loss"]) == 3
+    # two Adam steps from +15 % / -11 % already reduce the misfit
+    assert summary["identification"]["loss"][-1] < summary["identification"]["loss"][0]
+    assert 5e-6 <= summary["design"]["clearance_m"] <= 80e-6
