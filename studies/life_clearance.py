@@ -36,9 +36,12 @@ from jaxbearing.cases.xu2014 import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
 GROOVES = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
 
 
-def log_life(model, t1, ts):
+TIGHT = dict(rtol=1e-10, atol=1e-12)  # derivative checks: finite differences need tight solves
+
+
+def log_life(model, t1, ts, **kw):
     """log L10 [log of millions of relative revolutions], Lundberg–Palmgren, t >= 0.04 s."""
-    sol = jb.simulate(model, t1, ts)
+    sol = jb.simulate(model, t1, ts, **kw)
     return jnp.log(jb.life.lp_life(sol, model, **GROOVES).l10)
 
 
@@ -71,13 +74,13 @@ def main(argv=None):
 
     def forward_log_life(c):  # the life law uses the model's clearance too: pass the same model
         m = jb.paths.replace(smooth, {"bearing.clearance": c})
-        sol = jb.simulate(m, t1, ts, adjoint=diffrax.ForwardMode())
+        sol = jb.simulate(m, t1, ts, adjoint=diffrax.ForwardMode(), **TIGHT)
         return jnp.log(jb.life.lp_life(sol, m, **GROOVES).l10)
 
     g = float(jax.jit(jax.jacfwd(forward_log_life))(40e-6))
     h = 1e-7
-    fd = (float(log_life(jb.paths.replace(smooth, {"bearing.clearance": 40e-6 + h}), t1, ts))
-          - float(log_life(jb.paths.replace(smooth, {"bearing.clearance": 40e-6 - h}), t1, ts))) / (2 * h)
+    fd = (float(log_life(jb.paths.replace(smooth, {"bearing.clearance": 40e-6 + h}), t1, ts, **TIGHT))
+          - float(log_life(jb.paths.replace(smooth, {"bearing.clearance": 40e-6 - h}), t1, ts, **TIGHT))) / (2 * h)
     print(f"d log L10 / d P_d at 40 µm: {g:.4g} 1/m (forward mode), {fd:.4g} 1/m (central difference)", flush=True)
 
     result = jb.tune(
