@@ -13,6 +13,7 @@ from . import cases, laws, life, metrics, multibody, paths
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
+from .sweep import sweep
 from .tune import TuneResult, sensitivity, tune
 
 __version__ = "0.1.0"
@@ -36,5 +37,6 @@ __all__ = [
     "paths",
     "sensitivity",
     "simulate",
+    "sweep",
     "tune",
 ]

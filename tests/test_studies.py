@@ -9,7 +9,12 @@ import pytest
 
 ROOT = Path(__file__).parent.parent
 TUNE = ROOT / "studies" / "tune_clearance.py"
-OTHER_STUDIES = sorted(p for p in (ROOT / "studies").glob("*.py") if p != TUNE)
+SLOW_STUDIES = {"life_clearance.py"}  # ~3 min quick: a tight-tolerance derivative check and a tuning compile
+OTHER_STUDIES = [
+    pytest.param(p, marks=pytest.mark.slow) if p.name in SLOW_STUDIES else p
+    for p in sorted((ROOT / "studies").glob("*.py"))
+    if p != TUNE
+]
 
 
 def run(script, *args):

@@ -106,7 +106,7 @@ def test_constant_cage_mode_runs_at_eq15_speed():
     np.testing.assert_allclose(np.asarray(sol.cage_angle), np.asarray(speed * ts), rtol=1e-12)
 
 
-@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
+@pytest.mark.parametrize("ball_force", [pytest.param("paper", marks=pytest.mark.slow), "smooth"])
 def test_kvaerno5_agrees_with_tsit5(ball_force):
     """The stiff solver is a first-class choice: over the start-up rattling (the hardest part,
     many ball engagements) both solvers agree to well within the tolerance-driven error."""

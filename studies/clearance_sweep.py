@@ -1,0 +1,139 @@
+"""Clearance x restitution map of the paper's impact slider–crank (`jaxbearing.sweep`).
+
+For each diametral clearance P_d and coefficient of restitution e_c, simulates 0–t1 of the
+paper's case with impact (Xu 2014, Sect. 3) and records the peak ball load and the peak bearing
+force |F| over t >= 0.04 s (after the start-up transient), plus the other standard metrics.
+Results go to ``OUT/`` through ``sweep(out=...)`` (resumable: rerun the same command after an
+interruption), then ``OUT/results.nc`` and one heatmap PNG per metric.
+
+    python studies/clearance_sweep.py             # 8 x 4 grid, 5–80 µm x e 0.5–1.0, 0–0.2 s
+    python studies/clearance_sweep.py --quick     # 2 x 2 grid, 0–0.12 s (first impacts)
+    python studies/clearance_sweep.py --out DIR --samples 20001
+
+Prints the throughput in simulations per second (with and without the first chunk, which
+includes compilation). For several CPU cores as devices, run with
+``XLA_FLAGS=--xla_force_host_platform_device_count=2``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+CLEARANCES_UM = [5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 80.0]  # the paper's 40 µm among them
+RESTITUTIONS = [0.5, 0.7, 0.9, 1.0]  # the paper's 0.9 among them
+QUICK_CLEARANCES_UM = [20.0, 60.0]
+QUICK_RESTITUTIONS = [0.7, 1.0]
+PLOTTED = {
+    "peak_ball_load": "peak ball load [N], t ≥ 0.04 s",
+    "peak_bearing_force": "peak bearing force |F| [N], t ≥ 0.04 s",
+}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="2 x 2 grid, t1 = 0.12 s")
+    parser.add_argument("--out", default=None, help="output folder (default results/clearance_sweep[_quick])")
+    parser.add_argument("--t1", type=float, default=None, help="final time [s] (0.2; quick 0.12)")
+    parser.add_argument("--samples", type=int, default=None,
+                        help="output times (default one every 10 µs: impacts last ~100 µs)")
+    parser.add_argument("--chunk-size", type=int, default=None, help="points per device per chunk")
+    args = parser.parse_args(argv)
+
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+
+    import jaxbearing as jb
+    from jaxbearing.sweep import sweep
+
+    clearances = np.array(QUICK_CLEARANCES_UM if args.quick else CLEARANCES_UM) * 1e-6
+    restitutions = np.array(QUICK_RESTITUTIONS if args.quick else RESTITUTIONS)
+    t1 = args.t1 if args.t1 is not None else (0.12 if args.quick else 0.2)
+    samples = args.samples if args.samples is not None else int(round(t1 / 10e-6)) + 1
+    out = Path(args.out or ("results/clearance_sweep_quick" if args.quick else "results/clearance_sweep"))
+
+    model = jb.cases.xu2014(impact=True, cage="kinematic", ball_force="paper")
+    n = clearances.size * restitutions.size
+    print(f"{n} simulations of 0–{t1} s ({samples} output times) on {jax.device_count()} "
+          f"device(s) -> {out}", flush=True)
+    tic = time.perf_counter()
+    ds = sweep(
+        model,
+        {"bearing.clearance": clearances, "impact.restitution": restitutions},
+        t1=t1,
+        ts=np.linspace(0.0, t1, samples),
+        out=out,
+        chunk_size=args.chunk_size,
+    )
+    wall = time.perf_counter() - tic
+    _report_speed(ds, wall)
+    _print_table(ds)
+    for name, label in PLOTTED.items():
+        path = out / f"{name}.png"
+        _heatmap(ds, name, label, path)
+        print(f"wrote {path}")
+    return 0
+
+
+def _report_speed(ds, wall):
+    computed = int(ds.attrs["sweep_computed_points"])
+    chunks = np.atleast_1d(ds.attrs["sweep_chunk_s"])
+    if computed == 0:
+        print(f"all {ds.status.size} points were already in the output folder ({wall:.1f} s)")
+        return
+    print(f"computed {computed} simulations in {wall:.1f} s: {computed / wall:.2f} simulations/s "
+          "including compilation")
+    if chunks.size > 1:
+        per_chunk = computed / chunks.size  # all chunks but the last are full
+        later = chunks[1:].sum()
+        rest = computed - per_chunk
+        print(f"  after the first chunk (compilation): {rest / later:.2f} simulations/s")
+
+
+def _print_table(ds):
+    clear = ds["bearing.clearance"].values * 1e6
+    for name in PLOTTED:
+        print(f"\n{name} [N]; rows: clearance [µm], columns: restitution")
+        print("        " + "".join(f"{e:>9.2f}" for e in ds["impact.restitution"].values))
+        for i, c in enumerate(clear):
+            row = ds[name].values[i]
+            print(f"{c:7.1f} " + "".join(f"{v:9.0f}" if np.isfinite(v) else "   failed" for v in row))
+    failed = int(ds.failed.sum())
+    if failed:
+        print(f"\n{failed} simulations failed (status codes {sorted(set(ds.status.values.ravel()) - {0})})")
+
+
+def _heatmap(ds, name, label, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    values = ds[name].values.T  # rows: restitution, columns: clearance
+    clear = ds["bearing.clearance"].values * 1e6
+    rest = ds["impact.restitution"].values
+    fig, ax = plt.subplots(figsize=(1.0 + 0.9 * clear.size, 1.2 + 0.6 * rest.size), layout="constrained")
+    image = ax.imshow(np.ma.masked_invalid(values), origin="lower", aspect="auto", cmap="viridis")
+    ax.set_xticks(range(clear.size), [f"{c:g}" for c in clear])
+    ax.set_yticks(range(rest.size), [f"{e:g}" for e in rest])
+    ax.set_xlabel("diametral clearance P_d [µm]")
+    ax.set_ylabel("restitution e_c")
+    ax.set_title(label)
+    finite = values[np.isfinite(values)]
+    middle = 0.5 * (finite.min() + finite.max()) if finite.size else 0.0
+    for (j, i), v in np.ndenumerate(values):
+        text = f"{v:.0f}" if np.isfinite(v) else "failed"
+        ax.text(i, j, text, ha="center", va="center", fontsize=8,
+                color="black" if np.isfinite(v) and v > middle else "white")
+    fig.colorbar(image, ax=ax, label="N")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
