@@ -13,7 +13,7 @@ the solve, 0 = successful) and ``failed`` (status != 0; the metrics of a failed 
 
 How it runs
 -----------
-- Points are processed in chunks of ``chunk_size`` points per device. One chunk is one call of a
+- Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is one call of a
   jitted ``shard_map(vmap(point -> metrics))`` over a 1-D mesh of all JAX devices
   (``jax.devices()``), so each device integrates its own members in its own loop; the chunk is
   padded to a multiple of the device count by repeating its last point (the padding is dropped).
@@ -22,6 +22,15 @@ How it runs
   bounded by the chunk, whatever the number of points.
 - Under vmap a solver loop runs until its slowest member finishes: points that need many steps
   slow down their chunk, not the others.
+- Chunk size. On CPU devices the default is one point per device: measured on the paper's case
+  with impact (0.2 s, 2001 output times), a vmapped batch of 2 different points took 30-70 times
+  as long per point as single runs. The excess grows with the number of output times (with 11
+  the same batch ran as fast as single runs) and appears only when the members' contact
+  segments end at different times (a batch of copies of one point runs fast): it lies in how
+  `simulate`'s segments save their output times under vmap. Even without impact a batch costs
+  more per point than single runs on a CPU. The devices then work in parallel on one point
+  each. On accelerators the default is 8 points per
+  device; set ``chunk_size`` from a measurement on the machine at hand.
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
   ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.
   A chunk that raises at run time (an equinox check inside the solve) is rerun one point at a
@@ -89,9 +98,10 @@ from . import _checks, metrics as _metrics, paths
 from .multibody.mechanism import Mechanism
 from .simulate import RESULTS, default_solver, simulate
 
-__all__ = ["sweep", "RAISED", "DEFAULT_CHUNK_SIZE", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
+__all__ = ["sweep", "RAISED", "default_chunk_size", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
 
-DEFAULT_CHUNK_SIZE = 8  # points per device per chunk
+DEFAULT_CHUNK_SIZE = {"cpu": 1}  # points per device per chunk, by platform (see the module doc)
+DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
 DEFAULT_SAMPLES = 2001  # output times when ts is not given
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
@@ -136,7 +146,8 @@ def sweep(
         t1: final time [s] of every simulation.
         ts: output times the metrics see (default ``linspace(t0, t1, 2001)``).
         out: folder to write to and resume from (see the module doc), or None.
-        chunk_size: points per device per chunk (default 8, or the layout already in ``out``).
+        chunk_size: points per device per chunk (default `default_chunk_size()`: 1 on CPU, 8
+            on accelerators; or the layout already in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
             max_steps, max_segments, adjoint); ``throw`` and ``progress`` are set by the sweep.
@@ -374,8 +385,15 @@ def _violation_flags(model, names, points):
     return jax.vmap(one)(points)
 
 
+def default_chunk_size(platform: str | None = None) -> int:
+    """Points per device per chunk when ``chunk_size`` is not given: 1 on CPU devices, 8 on
+    accelerators (the module doc says why)."""
+    platform = jax.devices()[0].platform if platform is None else platform
+    return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
+
+
 def _default_chunk_points(chunk_size, n_devices, n_points):
-    per_device = DEFAULT_CHUNK_SIZE if chunk_size is None else int(chunk_size)
+    per_device = default_chunk_size() if chunk_size is None else int(chunk_size)
     # never pad a small sweep beyond one round of the devices
     return max(1, min(per_device * n_devices, math.ceil(n_points / n_devices) * n_devices))
 
@@ -726,7 +744,7 @@ def _dataset(names, axes, grid, shape, points, metric_names, values, status, err
 
 def _write_netcdf(ds, path):
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    ds.to_netcdf(tmp, engine="h5netcdf")
+    ds.to_netcdf(tmp, engine="netcdf4")
     os.replace(tmp, path)
 
 
