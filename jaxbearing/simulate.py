@@ -18,6 +18,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 import optimistix as optx
+from optimistix._solver.bisection import _BisectionState  # state of the subclass below
 
 from . import _checks
 from .multibody.mechanism import Mechanism
@@ -240,6 +241,28 @@ def _behind(ys, ts, t_start):
     return jnp.roll(ys, k, axis=0)
 
 
+class _EventBisection(optx.Bisection):
+    """Bisection for the event time that also serves batch members without an event.
+
+    Under vmap, diffrax root-finds for every member when any member has an event; for the others
+    it asks for the root of t_next - t, which sits exactly at the upper end, where
+    `optx.Bisection`'s bracket check fails. Here such a bracket collapses onto its upper end, so
+    those members keep t_next exactly.
+    """
+
+    def init(self, fn, y, args, options, f_struct, aux_struct, tags):
+        lower = jnp.asarray(options["lower"], f_struct.dtype)
+        upper = jnp.asarray(options["upper"], f_struct.dtype)
+        lower_val, _ = fn(lower, args)
+        upper_val, _ = fn(upper, args)
+        return _BisectionState(
+            lower=jnp.where(upper_val == 0, upper, lower),
+            upper=upper,
+            flip=lower_val > upper_val,
+            error=jnp.array(jnp.inf, f_struct.dtype),
+        )
+
+
 def _concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
@@ -280,7 +303,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, pr
     if n_contacts:
         event = diffrax.Event(
             first_event,
-            root_finder=optx.Bisection(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
+            root_finder=_EventBisection(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
             direction=True,
         )
     term = diffrax.ODETerm(vector_field)
