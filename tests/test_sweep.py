@@ -283,3 +283,47 @@ def test_four_devices_give_the_same_numbers(grid_result, four_devices):
         four = four.load()
     assert four.attrs["parameters"] == reference.attrs["parameters"]
     assert_same(four, reference)
+
+
+@pytest.mark.slow
+def test_two_processes_with_jax_distributed(grid_result, tmp_path):
+    """The multi-host path on one machine: two processes of one CPU device each, joined by
+    `jax.distributed` (gloo collectives); process 0 writes, both return the whole result, and a
+    rerun loads it (broadcast from process 0) instead of recomputing."""
+    import socket
+
+    reference, _ = grid_result
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    script = textwrap.dedent(
+        f"""
+        import json, sys
+        sys.path.insert(0, {os.path.dirname(os.path.abspath(__file__))!r})
+        import jax
+        jax.config.update("jax_enable_x64", True)
+        jax.config.update("jax_cpu_collectives_implementation", "gloo")
+        jax.distributed.initialize("127.0.0.1:{port}", num_processes=2, process_id=int(sys.argv[1]))
+        assert jax.device_count() == 2 and jax.local_device_count() == 1
+        import test_sweep as t
+        first = t.run(out={str(tmp_path)!r})
+        again = t.run(out={str(tmp_path)!r})
+        print(json.dumps([first.peak_ball_load.values.tolist(), first.status.values.tolist(),
+                          again.attrs["sweep_computed_points"]]))
+        """
+    )
+    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    env.pop("XLA_FLAGS", None)
+    jobs = [subprocess.Popen([sys.executable, "-c", script, str(i)], env=env, text=True,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE) for i in range(2)]
+    outputs = [job.communicate(timeout=600) for job in jobs]
+    for job, (_, err) in zip(jobs, outputs):
+        assert job.returncode == 0, err[-3000:]
+    for stdout, _ in outputs:
+        loads, status, recomputed = json.loads(stdout.strip().splitlines()[-1])
+        np.testing.assert_array_equal(np.array(loads, float), reference.peak_ball_load.values)
+        np.testing.assert_array_equal(status, reference.status.values)
+        assert recomputed == 0
+    assert sorted(p.name for p in tmp_path.glob("chunk_*")) == ["chunk_00000.npz", "chunk_00001.npz"]
+    with xr.open_dataset(tmp_path / "results.nc") as saved:
+        assert_same(saved.load(), reference)
