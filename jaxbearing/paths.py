@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
 
 
 def _step(node, part: str):
@@ -37,4 +39,12 @@ def replace(model, values: Mapping[str, object]):
     for name in names:
         get(model, name)  # clear error for a bad path
     where = lambda m: tuple(get(m, name) for name in names)  # noqa: E731
-    return eqx.tree_at(where, model, tuple(values[name] for name in names))
+    return eqx.tree_at(where, model, tuple(_as_leaf(values[name]) for name in names))
+
+
+def _as_leaf(value):
+    """Numbers become float64 arrays: a Python float would be a static leaf, and every new value
+    would recompile `simulate`."""
+    if isinstance(value, (int, float, np.number, np.ndarray)) and not isinstance(value, bool):
+        return jnp.asarray(value, dtype=jnp.float64)
+    return value
