@@ -69,12 +69,9 @@ class BearingJoint(eqx.Module):
         """phi_c [rad]: kinematic (from the ring rotations since t = 0) or constant speed (Eq. 15
         at the initial ring speeds), see `BallBearing.cage`."""
         if self.bearing.cage == "kinematic":
-            inner = _angle_and_speed(q, q, self.inner_body)[0] - _angle_and_speed(
-                q0, q0, self.inner_body
-            )[0]
-            outer = _angle_and_speed(q, q, self.outer_body)[0] - _angle_and_speed(
-                q0, q0, self.outer_body
-            )[0]
+            # `pose` gives the ground's angle as 0
+            inner = pose(q, self.inner_body)[1] - pose(q0, self.inner_body)[1]
+            outer = pose(q, self.outer_body)[1] - pose(q0, self.outer_body)[1]
             return bearing_law.cage_speed(inner, outer, self.bearing)
         omega_inner = _angle_and_speed(q0, qd0, self.inner_body)[1]
         omega_outer = _angle_and_speed(q0, qd0, self.outer_body)[1]
