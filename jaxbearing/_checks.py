@@ -85,3 +85,29 @@ def in_open_interval(name: str, value, low: float, high: float):
 def in_half_open_interval(name: str, value, low: float, high: float):
     v = jnp.asarray(value)
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
+
+
+def material(youngs_modulus, poisson_ratio):
+    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5)."""
+    return [
+        positive("youngs_modulus", youngs_modulus, "Pa"),
+        in_open_interval("poisson_ratio", poisson_ratio, 0.0, 0.5),
+    ]
+
+
+def ball_count(n_balls):
+    """A bearing has an integer number of balls, at least 3."""
+    z = jnp.asarray(n_balls)
+    return ((z < 3) | (z != jnp.round(z)), "n_balls must be an integer of at least 3", n_balls)
+
+
+def balls_fit(n_balls, ball_diameter, pitch_diameter):
+    """The balls fit around the pitch circle without overlapping: neighbours' centres lie
+    d_m sin(pi/Z) apart, so D < d_m sin(pi/Z)."""
+    z, d, dm = (jnp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
+    return (
+        d >= dm * jnp.sin(jnp.pi / jnp.maximum(z, 1.0)),
+        "ball_diameter must be below pitch_diameter * sin(pi / n_balls), or the balls overlap "
+        "on the pitch circle [m]",
+        ball_diameter,
+    )

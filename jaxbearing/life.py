@@ -108,13 +108,14 @@ ISO_REDUCTION = 0.957
 
 def _geometry_rules(n_balls, ball_diameter, pitch_diameter, contact_angle):
     return [
-        _checks.positive("n_balls", n_balls, "-"),
+        _checks.ball_count(n_balls),
         _checks.positive("ball_diameter", ball_diameter, "m"),
         (
             jnp.asarray(pitch_diameter) <= jnp.asarray(ball_diameter),
             "pitch_diameter must exceed ball_diameter [m]",
             pitch_diameter,
         ),
+        _checks.balls_fit(n_balls, ball_diameter, pitch_diameter),
         (
             (jnp.asarray(contact_angle) < 0.0) | (jnp.asarray(contact_angle) >= 0.5 * jnp.pi),
             "contact_angle must lie in [0, pi/2) [rad]",
@@ -253,9 +254,10 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
     constant radial load under which 90 % of a population reach 1e6 revolutions.
 
     Args:
-        n_balls: Z, number of balls (> 0).
+        n_balls: Z, number of balls (an integer >= 3).
         ball_diameter: D_w [m] (> 0).
-        pitch_diameter: D_pw [m] (> D_w); D_w cos(alpha) / D_pw must lie in [0.01, 0.4].
+        pitch_diameter: D_pw [m] (> D_w, and D_w < D_pw sin(pi/Z): the balls fit around the
+            pitch circle); D_w cos(alpha) / D_pw must lie in [0.01, 0.4].
         contact_angle: alpha [rad] in [0, pi/2), 0 for a deep groove bearing.
         b_m: rating factor (1.3, the standard's value for contemporary bearing steel).
 
@@ -431,7 +433,8 @@ def ball_race_load_ratings(
     25.4 mm, as in ISO 281.
 
     Args:
-        n_balls: Z. ball_diameter: D [m]. pitch_diameter: d_m [m].
+        n_balls: Z (an integer >= 3). ball_diameter: D [m]. pitch_diameter: d_m [m] (the
+            balls must fit around it: D < d_m sin(pi/Z)).
         groove_inner, groove_outer: raceway conformities f = r/D (> 0.5).
         contact_angle: alpha [rad] in [0, pi/2).
         b_m: ISO 281 material factor (1.3; 1 for the original Lundberg–Palmgren constant).

@@ -108,9 +108,16 @@ class BallBearing(eqx.Module):
             groove_inner, groove_outer: raceway groove curvature ratios f = r/D (> 0.5).
             clearance: P_d, diametral [m]. damping: C_b [N s/m].
             youngs_modulus [Pa], poisson_ratio: of balls and rings.
+
+        Besides the rules of `BallBearing` and of `hertz.bearing_stiffness` (D > 0, d_m > D,
+        f > 0.5, E > 0, nu in (0, 0.5)), the n_balls balls must fit around the pitch circle:
+        D < d_m sin(pi / n_balls).
         """
         _, _, k_ball = hertz.bearing_stiffness(
             ball_diameter, pitch_diameter, groove_inner, groove_outer, youngs_modulus, poisson_ratio
+        )
+        _checks.raise_if_concrete(
+            [_checks.ball_count(n_balls), _checks.balls_fit(n_balls, ball_diameter, pitch_diameter)]
         )
         return cls(
             clearance=clearance,
@@ -169,7 +176,9 @@ class Impact(eqx.Module):
     def from_geometry(
         cls, *, radius_j, radius_k, restitution, youngs_modulus=207e9, poisson_ratio=0.3, **kwargs
     ) -> Impact:
-        """Stiffness of two spheres (or circular arcs) of radii R_j, R_k [m] of one material."""
+        """Stiffness of two spheres (or circular arcs) of radii R_j, R_k [m] of one material:
+        Young's modulus E [Pa] (> 0) and Poisson's ratio nu (in (0, 0.5))."""
+        _checks.raise_if_concrete(_checks.material(youngs_modulus, poisson_ratio))
         k = hertz.impact_stiffness(radius_j, radius_k, youngs_modulus, poisson_ratio)
         return cls(stiffness=k, restitution=restitution, **kwargs)
 
