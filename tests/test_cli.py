@@ -1,18 +1,22 @@
 """The ``jaxbearing xu2014`` command (jaxbearing.cli) and its helpers (jaxbearing.report)."""
 
 import csv
+import inspect
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 from types import SimpleNamespace
 
+import equinox as eqx
+import jax
 import numpy as np
 import pytest
 
-from jaxbearing import cli, report
+from jaxbearing import cases, cli, config, paths, provenance, report
 from jaxbearing.cases.xu2014 import TABLE5, TABLE5_TIMES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -247,9 +251,9 @@ def test_cli_summary(quick_run):
 
 def test_module_entry_point_help():
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    for args in (
-        ["-m", "jaxbearing.cli", "xu2014", "--help"],
-        [str(ROOT / "studies" / "xu2014.py"), "--help"],
+    for args, options in (
+        (["-m", "jaxbearing.cli", "xu2014", "--help"], ("--out", "--config")),
+        ([str(ROOT / "studies" / "xu2014.py"), "--help"], ("--out",)),
     ):
         done = subprocess.run(
             [sys.executable, *args],
@@ -261,4 +265,116 @@ def test_module_entry_point_help():
             timeout=60,
         )
         assert done.returncode == 0, done.stderr
-        assert "--out" in done.stdout
+        assert all(option in done.stdout for option in options)
+
+
+# ---------------------------------------------------------------------------------------------
+# Configuration files (--config) and the records in summary.json
+# ---------------------------------------------------------------------------------------------
+
+ALLOWED = r"the allowed keys are bearing\.clearance, bearing\.damping, bearing\.cage, " \
+    r"bearing\.ball_force, impact\.restitution, impact\.friction, impact\.contact_on, crank\.speed"
+
+BAD_CONFIGS = [
+    ("[bearing]\nclearence = 4e-5\n", r"unknown key bearing\.clearence; " + ALLOWED),
+    ("[gearbox]\nratio = 3.0\n", r"unknown table 'gearbox'; " + ALLOWED),
+    ("clearance = 4e-5\n", r"unknown top-level key 'clearance'; " + ALLOWED + r" \(each inside its table"),
+    ("bearing = 4e-5\n", r"'bearing' must be a table \(\[bearing\]\) of keys; got the number 4e-05"),
+    ('[bearing]\nclearance = "40 um"\n',
+     r"bearing\.clearance must be a number in SI units \[m\]; got the string '40 um' \(unit strings are not accepted"),
+    ('[crank]\nspeed = "600 rpm"\n', r"crank\.speed must be a number in SI units \[rad/s\]; got the string '600 rpm'"),
+    ("[impact]\nrestitution = true\n", r"impact\.restitution must be a single number in SI units \[-\]; got a boolean True"),
+    ("[impact]\nfriction = [0.1, 0.2]\n", r"impact\.friction must be a single number in SI units \[-\]; got an array \[0\.1, 0\.2\]"),
+    ("[impact.contact_on]\nvalue = 0.05\n", r"impact\.contact_on must be a single number in SI units \[s\]; got a table"),
+    ("[bearing]\ndamping = 1979-05-27\n", r"bearing\.damping must be a single number in SI units \[N s/m\]; got a date"),
+    ("[crank]\nspeed = nan\n", r"crank\.speed must be a finite number \[rad/s\]; got nan"),
+    ('[bearing]\ncage = "free"\n', r"bearing\.cage must be one of 'kinematic', 'constant'; got the string 'free'"),
+    ("[bearing]\nball_force = 1\n", r"bearing\.ball_force must be one of 'paper', 'smooth'; got the number 1"),
+    ("[bearing]\nclearance = -4e-5\n", r"bearing clearance must be zero or positive \[m\]; got -4e-05\."),
+    ("[impact]\nrestitution = 1.5\n", r"restitution must lie in \(0\.0, 1\.0\]; got 1\.5\."),
+    ("[bearing\nclearance = 4e-5\n", r"is not valid TOML"),
+    ("[impact]\nrestitution = __import__('os').system('touch evaluated')\n", r"is not valid TOML"),
+]
+
+
+@pytest.mark.parametrize("text, message", BAD_CONFIGS)
+def test_bad_config_is_refused_before_anything_runs(tmp_path, capsys, monkeypatch, text, message):
+    path = tmp_path / "overrides.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    monkeypatch.chdir(tmp_path)  # where an evaluated expression would write
+    assert cli.main(["xu2014", "--out", str(out), "--config", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"jaxbearing xu2014: {path.resolve()}"), err
+    assert re.search(message, err), err
+    assert not out.exists()  # refused before any output
+    assert not (tmp_path / "evaluated").exists()
+
+
+def test_missing_config_file(tmp_path, capsys):
+    assert cli.main(["xu2014", "--config", str(tmp_path / "nowhere.toml")]) == 2
+    assert "cannot read the configuration file" in capsys.readouterr().err
+
+
+def test_config_schema_covers_every_argument_of_the_case():
+    keywords = [option.keyword for keys in config.XU2014.values() for option in keys.values()]
+    assert sorted(keywords) == sorted(set(inspect.signature(cases.xu2014).parameters) - {"impact"})
+    overrides = config.check_overrides({"bearing": {"damping": 400, "cage": "constant"}, "crank": {"speed": 30}})
+    assert overrides == {"bearing": {"damping": 400.0, "cage": "constant"}, "crank": {"speed": 30.0}}
+    assert isinstance(overrides["bearing"]["damping"], float)  # TOML integers become floats
+    assert config.xu2014_kwargs(overrides) == {"bearing_damping": 400.0, "cage": "constant", "crank_speed": 30.0}
+
+
+OVERRIDES = """
+# SI units
+[bearing]
+clearance = 60e-6   # [m]
+
+[impact]
+restitution = 0.5
+"""
+
+
+def test_config_overrides_change_the_result_and_are_recorded(quick_run, tmp_path):
+    _, default_out = quick_run
+    path = tmp_path / "overrides.toml"
+    path.write_text(OVERRIDES)
+    out = tmp_path / "out"
+    args = ["--t1", "0.1", "--samples", "5001", "--no-rerun", "--no-figures"]  # as quick_run
+    assert cli.main(["xu2014", "--out", str(out), "--config", str(path), *args]) == 0
+    new = json.loads((out / "summary.json").read_text())
+    old = json.loads((default_out / "summary.json").read_text())
+
+    assert new["config_file"] == str(path.resolve()) and old["config_file"] is None
+    assert new["overrides"] == {"bearing": {"clearance": 6e-5}, "impact": {"restitution": 0.5}}
+    assert old["overrides"] == {}
+    assert new["versions"] == old["versions"] == provenance.versions()
+    assert set(new["versions"]) == {"python", "jaxbearing", "jax", "jaxlib", "diffrax", "equinox", "numpy"}
+    # the parameter records differ exactly where the file says
+    for case, changed in (
+        ("with_impact", {"forces.0.bearing.clearance", "contacts.0.impact.restitution"}),
+        ("without_impact", {"forces.0.bearing.clearance"}),
+    ):
+        a, b = old["parameters"][case], new["parameters"][case]
+        assert a.keys() == b.keys()
+        assert {k for k in a if a[k] != b[k]} == changed
+    assert new["parameters"]["with_impact"]["contacts.0.impact.restitution"] == 0.5
+    # and so do the results: both cases feel the clearance
+    for case in ("with_impact", "without_impact"):
+        for key in ("peak_bearing_force_N", "peak_ball_load_N", "num_steps"):
+            assert new["cases"][case][key] != old["cases"][case][key], (case, key)
+
+
+def test_parameter_record_rebuilds_the_model():
+    """The array entries of `provenance.parameters`, set onto a default model, give back the
+    model they were recorded from; the static entries record its structure."""
+    model = cases.xu2014(clearance=6e-5, restitution=0.5, crank_speed=30.0, cage="constant")
+    record = json.loads(json.dumps(provenance.parameters(model)))  # as read from summary.json
+    default = cases.xu2014()
+    arrays = {p: np.asarray(v) for p, v in record.items() if eqx.is_array(paths.get(default, p))}
+    rebuilt = paths.replace(default, arrays)
+    for a, b in zip(jax.tree_util.tree_leaves(rebuilt), jax.tree_util.tree_leaves(model)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert record["forces.0.bearing.cage"] == "constant" and record["forces.0.bearing.n_balls"] == 8
+    assert record["body_names"] == ["crank", "rod", "slider", "target"]
+    assert record["gravity"] is None
