@@ -107,7 +107,9 @@ def balls_fit(n_balls, ball_diameter, pitch_diameter):
     z, d, dm = (jnp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
     return (
         d >= dm * jnp.sin(jnp.pi / jnp.maximum(z, 1.0)),
-        "ball_diameter must be below pitch_diameter * sin(pi / n_balls), or the balls overlap "
-        "on the pitch circle [m]",
+        (
+            "ball_diameter must be below pitch_diameter * sin(pi / n_balls), or the balls "
+            "overlap on the pitch circle [m]"
+        ),
         ball_diameter,
     )

@@ -40,7 +40,15 @@ from typing import NamedTuple
 
 from .params import BallForce, CageMode
 
-__all__ = ["ConfigError", "XU2014", "read_overrides", "xu2014_kwargs", "xu2014_models"]
+__all__ = [
+    "XU2014",
+    "ConfigError",
+    "allowed_keys",
+    "check_overrides",
+    "read_overrides",
+    "xu2014_kwargs",
+    "xu2014_models",
+]
 
 
 class ConfigError(ValueError):
