@@ -1,13 +1,14 @@
 """Pure force laws: bearing balls (Eqs. 9–15, 28), impact (Eqs. 23–27), Hertz stiffness (Eqs. 10–11, 24–25)."""
 
 from . import hertz
-from .bearing import ball_angles, ball_deflections, ball_loads, cage_speed, resultant, smooth_ramp
+from .bearing import ball_angles, ball_deflections, ball_directions, ball_loads, cage_speed, resultant, smooth_ramp
 from .impact import ambrosio_friction, hertz as hertz_force, lankarani_nikravesh, spring_damper
 
 __all__ = [
     "ambrosio_friction",
     "ball_angles",
     "ball_deflections",
+    "ball_directions",
     "ball_loads",
     "cage_speed",
     "hertz",
