@@ -63,25 +63,26 @@ def sensitivity(
     Returns:
         ``(value, {name: derivative})`` in the metric's units per parameter unit.
     """
-    names = list(names)
-    adjoint = diffrax.ForwardMode() if mode == "forward" else None
     if mode not in ("forward", "reverse"):
         raise ValueError(f"mode must be 'forward' or 'reverse'; got {mode!r}.")
+    names = tuple(names)
+    value, grad = _value_and_grad(model, _values(model, names), metric, names, t1, ts, mode, simulate_kwargs)
+    return value, {n: grad[i] for i, n in enumerate(names)}
+
+
+@eqx.filter_jit
+def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
+    """Compiled once per metric, parameter names and settings: later calls at other designs
+    (arrays of the same shapes) reuse it."""
+    adjoint = diffrax.ForwardMode() if mode == "forward" else None
 
     def f(values):
         sol = simulate(_set(model, names, values), t1, ts, adjoint=adjoint, **simulate_kwargs)
         return metric(sol)
 
-    x0 = _values(model, names)
-    if mode == "forward":
-        value, grad = _forward_value_and_grad(f, x0)
-    else:
-        value, grad = eqx.filter_jit(jax.value_and_grad(f))(x0)
-    return value, {n: grad[i] for i, n in enumerate(names)}
+    if mode == "reverse":
+        return jax.value_and_grad(f)(x)
 
-
-@eqx.filter_jit
-def _forward_value_and_grad(f, x):
     def with_value(x_):
         v = f(x_)
         return v, v
