@@ -9,7 +9,7 @@ Two levels:
   `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
   `bearing_life`, `mean_speed_rpm`, `life_hours`.
 - **On a `Solution`** of a model with a bearing joint: `relative_speed`, `ring_point_loads`,
-  `iso_life`, `lp_life`, `l10_hours`.
+  `iso_life`, `lp_life`, `l10_hours`, and `metric`, the L10 life as a metric of sweeps.
 
 Conventions (ISO 281:2007 and ISO/TR 1281-1 for variable loads; Harris & Kotzalas, *Rolling
 Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundberg–Palmgren):
@@ -33,6 +33,8 @@ checked here.
 
 from __future__ import annotations
 
+import functools
+import inspect
 from typing import Literal
 
 import equinox as eqx
@@ -42,6 +44,7 @@ import numpy as np
 
 from . import _checks
 from .laws import bearing as bearing_law
+from .metrics import WithModel
 from .multibody.bodies import GROUND
 from .multibody.mechanism import Mechanism
 from .simulate import Solution
@@ -64,6 +67,7 @@ __all__ = [
     "life_hours",
     "load_rating_factor",
     "lp_life",
+    "metric",
     "mean_speed_rpm",
     "rating_life",
     "relative_speed",
@@ -775,3 +779,44 @@ def l10_hours(
     if method == "lp":
         return lp_life(sol, model, **kwargs).l10_hours
     raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
+
+
+_L10_UNITS = ("hours", "mrev")
+
+
+def metric(
+    method: Literal["iso", "lp"] = "iso", unit: Literal["hours", "mrev"] = "hours", **kwargs
+) -> WithModel:
+    """The L10 life as a metric of `jaxbearing.sweep` (a `metrics.WithModel`: the sweep passes
+    each member's solution and model, so a swept clearance or stiffness enters the life):
+
+        metrics = {"l10_hours": life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
+
+    Args:
+        method: ``"iso"`` ISO 281 rating life (`iso_life`) or ``"lp"`` Lundberg–Palmgren
+            (`lp_life`).
+        unit: ``"hours"`` L10h [h] at the mean relative speed, or ``"mrev"`` L10 [millions of
+            relative revolutions].
+        **kwargs: keyword arguments of that function (t_min, t_max; groove_inner,
+            groove_outer, rotating, ... for ``"lp"``), checked here.
+
+    The value equals ``iso_life(sol, model, **kwargs).l10_hours`` (or ``.l10``; ``lp_life``
+    likewise) on a single run. It costs little beside the simulation: on `cases.xu2014` with
+    impact (0.2 s, 2001 output times) 1.3 ms (ISO) and 17 ms (Lundberg–Palmgren, which follows
+    64 points of each ring) per member, against 1.7 s for the solve.
+    """
+    functions = {"iso": iso_life, "lp": lp_life}
+    if method not in functions:
+        raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
+    if unit not in _L10_UNITS:
+        raise ValueError(f"unit must be 'hours' or 'mrev'; got {unit!r}.")
+    try:
+        inspect.signature(functions[method]).bind(None, None, **kwargs)
+    except TypeError as err:
+        raise TypeError(f"life.metric({method!r}): {err}") from None
+    return WithModel(functools.partial(_l10, method=method, unit=unit, **kwargs))
+
+
+def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Array:
+    result = (iso_life if method == "iso" else lp_life)(sol, model, **kwargs)
+    return result.l10_hours if unit == "hours" else result.l10

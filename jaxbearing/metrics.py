@@ -14,9 +14,16 @@ differentiation transforms:
 
 Samples are weighted by the trapezoid rule on ``sol.ts``, so the means do not depend on how the
 output times are spaced. Forces in N, displacements in m.
+
+A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
+is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
+each member's model; `jaxbearing.life.metric` makes one.
 """
 
 from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -25,6 +32,20 @@ from .simulate import Solution
 
 T_MIN = 0.04  # [s] start of the default window
 TARGET_X = 9  # coordinate of the target's x in `cases.xu2014` (body 3)
+
+
+@dataclasses.dataclass(frozen=True)
+class WithModel:
+    """A metric of the solution and the model: ``fn(sol, model) -> scalar``.
+
+    `jaxbearing.sweep` calls a plain metric as ``fn(sol)`` and a WithModel as ``fn(sol, model)``
+    with the member's own model (its swept parameters set). Calling a WithModel calls ``fn``.
+    """
+
+    fn: Callable
+
+    def __call__(self, sol: Solution, model) -> jax.Array:
+        return self.fn(sol, model)
 
 
 def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:

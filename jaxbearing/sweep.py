@@ -11,6 +11,14 @@
 returns an `xarray.Dataset`: one data variable per metric plus ``status`` (the `RESULTS` code of
 the solve, 0 = successful) and ``failed`` (status != 0; the metrics of a failed member are NaN).
 
+A metric is a function of the member's `Solution`, ``fn(sol) -> scalar``; one that also needs
+the model (bearing life needs the bearing's geometry and the ring speeds) is wrapped in
+`metrics.WithModel` and called ``fn(sol, model)`` with the member's own model, its swept
+parameters set. `life.metric` makes the L10 life such a metric:
+
+    metrics = {**jb.metrics.STANDARD,
+               "l10_hours": jb.life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
+
 How it runs
 -----------
 - Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is one call of a
@@ -22,31 +30,37 @@ How it runs
   bounded by the chunk, whatever the number of points.
 - Under vmap a solver loop runs until its slowest member finishes: points that need many steps
   slow down their chunk, not the others.
-- Chunk size. On CPU devices the default is one point per device: measured on the paper's case
-  with impact (0.2 s, 2001 output times), a vmapped batch of 2 different points took 30-70 times
-  as long per point as single runs. The excess grows with the number of output times (with 11
-  the same batch ran as fast as single runs) and appears only when the members' contact
-  segments end at different times (a batch of copies of one point runs fast): it lies in how
-  `simulate`'s segments save their output times under vmap. Even without impact a batch costs
-  more per point than single runs on a CPU. The devices then work in parallel on one point
-  each. On accelerators the default is 8 points per
-  device; set ``chunk_size`` from a measurement on the machine at hand.
+- Chunk size. On CPU devices the default is 4 points per device. Measured on the paper's case
+  with impact (0.2 s, 2001 output times), a vmapped batch of 8 different clearances took 6.2 s
+  against 6.3 s for the same 8 points run one after the other, and a batch of 2 took 2.0 s
+  against 1.8 s: a batch cost about what its members cost serially. Since `simulate` also
+  stops its segments at ``time_cells`` equal intervals (members stay aligned in time), the batch
+  of 8 takes 2.95 s against 6.09 s serially. 4 points per device keep the per-chunk overhead
+  (dispatch, gathering, writing a file) small while a chunk stays short, so little is lost to a
+  slow member (above) or to an interruption. On accelerators the default is 8 points per device;
+  set ``chunk_size`` from a measurement on the machine at hand.
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
   ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.
   A chunk that raises at run time (an equinox check inside the solve) is rerun one point at a
   time with the same compiled function; the points that still raise get ``status = RAISED``
-  (-1), NaN metrics, and their message in ``attrs["errors"]`` (JSON; in multi-process runs such
-  an error is re-raised instead).
+  (-1) and NaN metrics (in multi-process runs such an error is re-raised instead).
   Invalid parameter values (e.g. a negative clearance) are rejected before anything runs, with a
   `ValueError` naming the point.
+- Failed members are reported with their parameters: one `RuntimeWarning` at the end lists
+  them (point index, parameter values, result name and message, up to 10 lines), and
+  ``attrs["failures"]`` (JSON) holds them all, each as ``{"index", "point": {path: value},
+  "status", "result", "message"}`` (for `RAISED` the error's message).
 - To use several CPU cores as devices, set ``XLA_FLAGS=--xla_force_host_platform_device_count=N``
   in the environment before JAX is imported.
 
 Output folder (``out=``)
 ------------------------
 ``manifest.json`` records what the sweep is (parameter names and values, grid or list, metric
-names, t1, ts, the solver settings, the points per chunk and a fingerprint of the model: a hash of
-its tree structure and of the bytes of all its array leaves, with the swept leaves blanked).
+names, t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
+path (`provenance.parameters`; the swept ones as ``"swept"``: their values are the
+coordinates) and a
+fingerprint of the model: a hash of its tree structure and of the bytes of all its array leaves,
+with the swept leaves blanked), and the package versions that started it (`provenance.versions`).
 Each finished chunk is written at once, atomically (temporary file + ``os.replace``), as
 ``chunk_XXXXX.npz``; at the end the whole Dataset goes to ``results.nc`` (netCDF, also atomic).
 Calling `sweep` again with the same arguments and ``out`` loads the chunks already written and
@@ -55,7 +69,12 @@ values, model, metrics or settings) `sweep` raises a `ValueError` listing what d
 another ``out`` or delete the folder. A chunk file that cannot be read, or does not hold what the
 manifest says, raises a `ValueError` naming the file (delete it to recompute that chunk). A sweep
 started on one device count may be resumed on another: without an explicit ``chunk_size`` the
-chunk layout of the manifest is kept.
+chunk layout of the manifest is kept. Package versions are recorded but not compared: a sweep
+resumed under other versions goes on with a `RuntimeWarning` naming them (results may then
+differ in the last bits between the chunks computed before and after), and ``results.nc``
+records both sets. ``results.nc`` carries the manifest's records as attributes (``versions``,
+``model_parameters``, ``simulate_kwargs``, ... as JSON): with the coordinates they are the full
+input of every member.
 
 Several hosts (``jax.distributed``)
 -----------------------------------
@@ -94,18 +113,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import _checks, metrics as _metrics, paths
+from . import _checks, metrics as _metrics, paths, provenance
 from .multibody.mechanism import Mechanism
 from .simulate import RESULTS, default_solver, simulate
 
 __all__ = ["sweep", "RAISED", "default_chunk_size", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
 
-DEFAULT_CHUNK_SIZE = {"cpu": 1}  # points per device per chunk, by platform (see the module doc)
+DEFAULT_CHUNK_SIZE = {"cpu": 4}  # points per device per chunk, by platform (see the module doc)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
 DEFAULT_SAMPLES = 2001  # output times when ts is not given
 MANIFEST = "manifest.json"
+SWEPT = "swept"  # the value of a swept parameter in the manifest's model_parameters
 RESULTS_FILE = "results.nc"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 AXIS = "d"  # name of the device axis of the mesh
 _RESERVED = ("status", "failed", "point")
 _NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itself
@@ -137,7 +157,8 @@ def sweep(
         model: a `Mechanism`; the swept parameters replace its values (`paths.replace`).
         params: dotted parameter path -> 1-D values, e.g. ``{"bearing.clearance": [2e-5, 4e-5],
             "impact.restitution": [0.7, 0.9]}``.
-        metrics: name -> function of a `Solution` returning a scalar (default
+        metrics: name -> function of a `Solution` returning a scalar, or a `metrics.WithModel`
+            (a function of the solution and the member's model, e.g. `life.metric`) (default
             `jaxbearing.metrics.STANDARD`). Names must differ from the parameter paths and from
             ``status``, ``failed``, ``point``.
         grid: True: every combination of the values (dimensions in the order of ``params``).
@@ -146,7 +167,7 @@ def sweep(
         t1: final time [s] of every simulation.
         ts: output times the metrics see (default ``linspace(t0, t1, 2001)``).
         out: folder to write to and resume from (see the module doc), or None.
-        chunk_size: points per device per chunk (default `default_chunk_size()`: 1 on CPU, 8
+        chunk_size: points per device per chunk (default `default_chunk_size()`: 4 on CPU, 8
             on accelerators; or the layout already in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
@@ -156,10 +177,11 @@ def sweep(
         `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =
         successful, or `RAISED`; ``attrs["status_codes"]`` names them) and ``failed`` (bool). Grid: one
         dimension and coordinate per parameter. List: dimension ``point``, the parameters as
-        coordinates along it. Attributes record t1, t0, the tolerances and solver, the model
-        fingerprint and the jaxbearing version; the returned object also carries timing of this
-        call (``sweep_computed_points``, ``sweep_wall_s``, ``sweep_chunk_s``), which is not
-        written to ``results.nc``.
+        coordinates along it. Attributes record t1, t0, the tolerances and solver, every model
+        parameter (``model_parameters``), the model fingerprint, the package versions
+        (``versions``) and the failed members with their parameters (``failures``); the
+        returned object also carries timing of this call (``sweep_computed_points``,
+        ``sweep_wall_s``, ``sweep_chunk_s``), which is not written to ``results.nc``.
     """
     import xarray as xr  # noqa: F401  (fail early with a clear ImportError)
 
@@ -198,7 +220,13 @@ def sweep(
     error = None
     if main:
         try:
-            chunk_points, done = _open_out(out, manifest, chunk_size, chunk_points, n_devices)
+            chunk_points, done, stored_versions = _open_out(
+                out, manifest, chunk_size, chunk_points, n_devices
+            )
+            if stored_versions is not None and stored_versions != manifest["versions"]:
+                warnings.warn(_versions_changed(out, stored_versions, manifest["versions"]),
+                              RuntimeWarning, stacklevel=2)  # fmt: skip
+                manifest["versions_at_start"] = stored_versions
             if out is not None:
                 _load_chunks(out, done, chunk_points, points, metric_names, values, status, errors)
         except Exception as err:  # noqa: BLE001  (re-raised below, after telling the others)
@@ -268,6 +296,9 @@ def sweep(
     ds = _dataset(names, axes, grid, shape, points, metric_names, values, status, errors, manifest)
     if out is not None and main:
         _write_netcdf(ds, out / RESULTS_FILE)
+    failed = json.loads(ds.attrs["failures"])
+    if failed and main:
+        warnings.warn(_failure_report(failed, n_points), RuntimeWarning, stacklevel=2)
     ds.attrs["sweep_computed_points"] = computed
     ds.attrs["sweep_wall_s"] = time.perf_counter() - started
     ds.attrs["sweep_chunk_s"] = np.asarray(chunk_seconds)
@@ -324,7 +355,10 @@ def _points(names, axes, grid):
 def _metric_items(metrics, names):
     metrics = _metrics.STANDARD if metrics is None else metrics
     if not isinstance(metrics, Mapping) or not metrics:
-        raise ValueError("metrics must be a non-empty mapping of names to functions of a Solution.")
+        raise ValueError(
+            "metrics must be a non-empty mapping of names to functions of a Solution (or "
+            "metrics.WithModel functions of a Solution and the model)."
+        )
     items = []
     for name, fn in metrics.items():
         if not isinstance(name, str) or not callable(fn):
@@ -386,7 +420,7 @@ def _violation_flags(model, names, points):
 
 
 def default_chunk_size(platform: str | None = None) -> int:
-    """Points per device per chunk when ``chunk_size`` is not given: 1 on CPU devices, 8 on
+    """Points per device per chunk when ``chunk_size`` is not given: 4 on CPU devices, 8 on
     accelerators (the module doc says why)."""
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
@@ -483,7 +517,7 @@ def _run_chunk(model, rows, ts, names, metric_items, t1, sim_items, mesh):
         ok = code == _SUCCESS
         outs = []
         for name, fn in metric_items:
-            value = jnp.asarray(fn(sol))
+            value = jnp.asarray(fn(sol, m) if isinstance(fn, _metrics.WithModel) else fn(sol))
             if value.shape != ():
                 raise ValueError(f"Metric {name!r} must return a scalar; it returned shape {value.shape}.")
             outs.append(jnp.where(ok, value.astype(jnp.float64), jnp.nan))
@@ -532,6 +566,8 @@ def _jsonable(value):
 
 
 def _metric_label(fn):
+    if isinstance(fn, _metrics.WithModel):
+        return f"WithModel({_metric_label(fn.fn)})"
     inner = getattr(fn, "func", fn)  # functools.partial
     label = f"{getattr(inner, '__module__', '?')}.{getattr(inner, '__qualname__', type(inner).__name__)}"
     if inner is not fn:
@@ -540,9 +576,12 @@ def _metric_label(fn):
     return label
 
 
-def _manifest(model, names, axes, grid, shape, metric_items, t1, ts, sim_kwargs):
-    from . import __version__
+def _model_parameters(model, names):
+    """`provenance.parameters` of the model, the swept leaves marked ``"swept"``."""
+    return provenance.parameters(paths.replace(model, {n: SWEPT for n in names}))
 
+
+def _manifest(model, names, axes, grid, shape, metric_items, t1, ts, sim_kwargs):
     manifest = {
         "format": FORMAT_VERSION,
         "parameters": {n: a.tolist() for n, a in zip(names, axes)},
@@ -553,20 +592,24 @@ def _manifest(model, names, axes, grid, shape, metric_items, t1, ts, sim_kwargs)
         "ts": np.asarray(ts).tolist(),
         "simulate": {k: _jsonable(v) for k, v in _resolved_settings(sim_kwargs).items()},
         "model_fingerprint": _fingerprint(model, names),
+        "model_parameters": _model_parameters(model, names),
         "chunk_points": None,  # set once the folder is opened
-        "jaxbearing_version": __version__,
+        "versions": provenance.versions(),
     }
     return json.loads(json.dumps(manifest))  # normalised as it reads back
 
 
-_NOT_COMPARED = ("jaxbearing_version", "chunk_points")
+_NOT_COMPARED = ("versions", "chunk_points")
+_MISSING = "(missing)"
 
 
 def _open_out(out, manifest, chunk_size, chunk_points, n_devices):
-    """Create or check ``out``; returns (points per chunk, done mask)."""
+    """Create or check ``out``; returns (points per chunk, done mask, the package versions of
+    the stored manifest or None)."""
     n_points = int(np.prod(manifest["shape"]))
+    stored_versions = None
     if out is None:
-        return chunk_points, np.zeros(math.ceil(n_points / chunk_points), bool)
+        return chunk_points, np.zeros(math.ceil(n_points / chunk_points), bool), stored_versions
     out.mkdir(parents=True, exist_ok=True)
     path = out / MANIFEST
     chunks = sorted(out.glob("chunk_*.npz"))
@@ -595,6 +638,7 @@ def _open_out(out, manifest, chunk_size, chunk_points, n_devices):
                 "unset to resume with the stored layout, use another `out`, or delete it."
             )
         chunk_points = stored
+        stored_versions = old.get("versions", {})
     else:
         if chunks:
             raise ValueError(
@@ -611,14 +655,33 @@ def _open_out(out, manifest, chunk_size, chunk_points, n_devices):
              or int(p.stem.split("_")[1]) >= n_chunks]
     if extra:
         raise ValueError(f"{out} holds chunk files this sweep does not have: {extra}; delete them.")
-    return chunk_points, done
+    return chunk_points, done, stored_versions
+
+
+def _versions_changed(out, stored, now):
+    changed = ", ".join(
+        f"{name} {stored.get(name)} -> {version}"
+        for name, version in now.items() if stored.get(name) != version
+    )  # fmt: skip
+    return (
+        f"sweep: resuming {out} under other package versions ({changed}); the chunks computed "
+        "before may differ from new ones in the last bits. results.nc records both "
+        "(attributes versions_at_start and versions)."
+    )
 
 
 def _describe_difference(old, new, keys):
     parts = []
     for k in keys[:3]:
-        a, b = _short(old.get(k)), _short(new.get(k))
-        parts.append(f"{k}: stored {a}, now {b}")
+        a, b = old.get(k), new.get(k)
+        if isinstance(a, dict) and isinstance(b, dict):  # name the entries that differ
+            inner = [e for e in {**a, **b} if a.get(e, _MISSING) != b.get(e, _MISSING)]
+            parts += [
+                f"{k} {e}: stored {_short(a.get(e, _MISSING))}, now {_short(b.get(e, _MISSING))}"
+                for e in inner[:3]
+            ]
+        else:
+            parts.append(f"{k}: stored {_short(a)}, now {_short(b)}")
     return "; ".join(parts)
 
 
@@ -694,8 +757,44 @@ def _load_chunks(out, done, chunk_points, points, metric_names, values, status, 
 
 def _status_codes():
     codes = {int(item._value): name for name, item in RESULTS._name_to_item.items()}
-    codes[RAISED] = "raised an error (see the attribute 'errors')"
+    codes[RAISED] = "raised"
     return codes
+
+
+def _result_message(code):
+    """The first paragraph of a `RESULTS` code's message, on one line."""
+    return " ".join(RESULTS._index_to_message[code].split("\n\n")[0].split())
+
+
+def _failures(names, points, status, errors) -> list[dict]:
+    """One record per failed member (status != 0): its flat index, parameter values, status
+    code, result name and message (a `RAISED` member's error message)."""
+    codes = _status_codes()
+    return [
+        {
+            "index": int(i),
+            "point": dict(zip(names, points[i].tolist())),
+            "status": int(status[i]),
+            "result": codes.get(int(status[i]), "unknown"),
+            "message": str(errors[i]) if status[i] == RAISED else _result_message(int(status[i])),
+        }
+        for i in np.flatnonzero(status != _SUCCESS)
+    ]
+
+
+def _failure_report(records, n_points, limit=10):
+    """The warning that lists failed members with their parameters."""
+    lines = [
+        f"  point {r['index']} ({', '.join(f'{n} = {v:.6g}' for n, v in r['point'].items())}): "
+        f"{r['result']}: {r['message']}"
+        for r in records[:limit]
+    ]
+    if len(records) > limit:
+        lines.append(f"  ... and {len(records) - limit} more")
+    return (
+        f"sweep: {len(records)} of {n_points} members failed; their metrics are NaN (the "
+        "Dataset attribute 'failures' lists them all):\n" + "\n".join(lines)
+    )
 
 
 def _dataset(names, axes, grid, shape, points, metric_names, values, status, errors, manifest):
@@ -727,15 +826,13 @@ def _dataset(names, axes, grid, shape, points, metric_names, values, status, err
         "solver": str(settings["solver"]),
         "simulate_kwargs": json.dumps(settings),
         "model_fingerprint": manifest["model_fingerprint"],
-        "jaxbearing_version": manifest["jaxbearing_version"],
+        "model_parameters": json.dumps(manifest["model_parameters"]),
+        "versions": json.dumps(manifest["versions"]),
         "status_codes": json.dumps(_status_codes()),
+        "failures": json.dumps(_failures(names, points, status, errors)),
     }
-    raised = [
-        {"index": int(i), "point": dict(zip(names, points[i].tolist())), "error": str(errors[i])}
-        for i in np.flatnonzero(status == RAISED)
-    ]
-    if raised:
-        attrs["errors"] = json.dumps(raised)
+    if "versions_at_start" in manifest:
+        attrs["versions_at_start"] = json.dumps(manifest["versions_at_start"])
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
     ds["status"].attrs["description"] = "jaxbearing.RESULTS code of the solve, 0 = successful"
     ds["failed"].attrs["description"] = "status != 0: the solve failed, its metrics are NaN"

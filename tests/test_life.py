@@ -402,6 +402,30 @@ def test_bad_inputs_raise_naming_the_parameter(call, name):
         call()
 
 
+def test_life_as_a_metric_of_solution_and_model(model):
+    """`life.metric` is the life of `iso_life`/`lp_life` as a `metrics.WithModel` (sweeps pass
+    it the member's model); tests/test_sweep.py checks it inside a sweep against single runs."""
+    sol = _fake_solution(model, 0.5 * float(model.bearing.clearance) + 8e-6, samples=101)
+    kw = {"groove_inner": 0.5219, "groove_outer": 0.5194, "t_min": None}
+    iso, lp = life.iso_life(sol, model, t_min=None), life.lp_life(sol, model, **kw)
+    cases = [
+        (life.metric(t_min=None), iso.l10_hours),
+        (life.metric("iso", "mrev", t_min=None), iso.l10),
+        (life.metric("lp", **kw), lp.l10_hours),
+        (life.metric("lp", "mrev", **kw), lp.l10),
+    ]
+    for fn, expected in cases:
+        assert isinstance(fn, jb.metrics.WithModel)
+        assert float(fn(sol, model)) == float(expected)
+    assert float(iso.l10_hours) != float(lp.l10_hours)
+    with pytest.raises(ValueError, match="method must be 'iso' or 'lp'; got 'weibull'"):
+        life.metric("weibull")
+    with pytest.raises(ValueError, match="unit must be 'hours' or 'mrev'; got 'years'"):
+        life.metric("iso", "years")
+    with pytest.raises(TypeError, match=r"life.metric\('iso'\): .*groove_inner"):
+        life.metric("iso", groove_inner=0.52)  # a keyword of lp_life, not of iso_life
+
+
 def test_bad_options_raise(model):
     sol = _fake_solution(model, 3e-5, samples=11)
     with pytest.raises(ValueError, match="rotating"):

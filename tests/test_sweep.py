@@ -1,10 +1,14 @@
-"""`jaxbearing.sweep`: labelled grid and list results equal to single runs, failed members marked,
-resumable output, clear errors for foreign or corrupted folders, several devices.
+"""`jaxbearing.sweep`: labelled grid and list results equal to single runs (bearing life among
+the metrics), failed members marked and reported with their parameters, resumable output (also
+after a real SIGKILL), clear errors for foreign or corrupted folders, version and parameter
+records, bitwise reproducibility across runs and processes, several devices.
 
 Every sweep here uses the same model structure, metrics, output times, solver settings and chunk
-shape, so the sweep kernel compiles once for the whole file. The paper's case without impact over
-0.01 s takes ~1000 steps; a bearing damping of 3e5 N s/m needs ~2200, so with max_steps=1500 those
-members fail (max_steps_reached) while the others succeed.
+shape, so the sweep kernel compiles once in this process (and once in each of the two
+subprocesses started at the beginning, which compile while the first tests run). The paper's
+case without impact over 0.01 s takes ~1000 steps; a bearing damping of 1e8 N s/m makes the ball contacts so stiff that
+max_steps=1500 runs out at t = 0.4 ms, so those members fail (max_steps_reached) while the others
+succeed.
 
 Bit-for-bit comparisons hold between runs of the same XLA program for one member: an individual
 run under jit with traced parameters, or a sweep with the same points per device on another
@@ -20,9 +24,11 @@ import functools
 import importlib
 import json
 import os
+import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import jax
 import numpy as np
@@ -30,7 +36,7 @@ import pytest
 import xarray as xr
 
 import jaxbearing as jb
-from jaxbearing import metrics as M, paths
+from jaxbearing import metrics as M, paths, provenance
 
 sweep_module = importlib.import_module("jaxbearing.sweep")
 sweep = sweep_module.sweep
@@ -39,14 +45,28 @@ T1 = 0.01
 TS = np.linspace(0.0, T1, 11)
 MAX_STEPS = 1500
 CHUNK = 2  # points per device per chunk
+GROOVES = {"groove_inner": 0.5219, "groove_outer": 0.5194}  # those of cases.skf98205
 METRICS = {  # window from t = 0: the standard one starts at 0.04 s
     "peak_ball_load": functools.partial(M.peak_ball_load, t_min=0.0),
     "rms_bearing_force": functools.partial(M.rms_bearing_force, t_min=0.0),
+    # life needs the model as well: metrics.WithModel functions of (solution, model)
+    "l10_iso_hours": jb.life.metric("iso", t_min=0.0),
+    "l10_lp_mrev": jb.life.metric("lp", unit="mrev", t_min=0.0, **GROOVES),
 }
 CLEARANCES = [20e-6, 40e-6, 60e-6]
-DAMPINGS = [300.0, 3e5]  # the second fails at MAX_STEPS
+DAMPINGS = [300.0, 1e8]  # the second fails at MAX_STEPS
 GRID = {"bearing.clearance": CLEARANCES, "bearing.damping": DAMPINGS}
 MAX_STEPS_REACHED = int(jb.RESULTS.max_steps_reached._value)
+# the sweep that is killed mid-way: the grid's 6 points twice, as a list of 12 (6 chunks); a
+# member's result does not depend on the others in its chunk, so it equals the grid's
+KILL_POINTS = {
+    "bearing.clearance": np.tile(np.repeat(CLEARANCES, len(DAMPINGS)), 2),
+    "bearing.damping": np.tile(DAMPINGS, 2 * len(CLEARANCES)),
+}
+TESTS = os.path.dirname(os.path.abspath(__file__))
+
+# every sweep with DAMPINGS[1] reports its failed members; the tests that check it catch it
+pytestmark = pytest.mark.filterwarnings("ignore:sweep. [0-9]+ of [0-9]+ members failed:RuntimeWarning")
 
 
 def model():
@@ -64,47 +84,108 @@ def assert_same(a: xr.Dataset, b: xr.Dataset):
         np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def four_devices(tmp_path_factory):
-    """The grid sweep in a subprocess with 4 CPU devices (XLA_FLAGS must be set before JAX is
-    imported), started first so that it compiles while the other tests run."""
-    out = tmp_path_factory.mktemp("four_devices")
-    script = textwrap.dedent(
-        f"""
-        import pathlib, sys
-        sys.path.insert(0, {os.path.dirname(os.path.abspath(__file__))!r})
-        import jax
-        jax.config.update("jax_enable_x64", True)
-        assert jax.device_count() == 4, jax.devices()
-        import test_sweep as t
-        t.run(out={str(out)!r})
-        print("CHUNKS", len(list(pathlib.Path({str(out)!r}).glob("chunk_*"))))
-        """
-    )
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=4", JAX_PLATFORMS="cpu")
-    job = subprocess.Popen([sys.executable, "-c", script], env=env, text=True,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    yield job, out
+def start_process(body: str, devices: int, stderr=subprocess.PIPE):
+    """A python process on ``devices`` CPU devices (XLA_FLAGS must be set before JAX is
+    imported) that imports this file as ``t`` and runs ``body``."""
+    preamble = f"""
+import pathlib, sys, time
+sys.path.insert(0, {TESTS!r})
+import jax
+jax.config.update("jax_enable_x64", True)
+assert jax.device_count() == {devices}, jax.devices()
+import test_sweep as t
+"""
+    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    env.pop("XLA_FLAGS", None)
+    if devices > 1:
+        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
+    return subprocess.Popen([sys.executable, "-c", preamble + textwrap.dedent(body)], env=env,
+                            text=True, stdout=subprocess.PIPE, stderr=stderr)
+
+
+def stop(job):
     if job.poll() is None:
         job.kill()
         job.communicate()
 
 
+@pytest.fixture(scope="module", autouse=True)
+def four_devices(tmp_path_factory):
+    """The grid sweep in a subprocess with 4 CPU devices, started first so that it compiles
+    while the other tests run."""
+    out = tmp_path_factory.mktemp("four_devices")
+    job = start_process(
+        f"""
+        t.run(out={str(out)!r})
+        print("CHUNKS", len(list(pathlib.Path({str(out)!r}).glob("chunk_*"))))
+        """,
+        devices=4,
+    )
+    yield job, out
+    stop(job)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def other_process(tmp_path_factory):
+    """A second process (one CPU device, as here) that runs the grid sweep uninterrupted, says
+    READY, waits for the file ``go`` and then runs the KILL_POINTS sweep, which the test kills.
+    Started first, so that it compiles while the other tests run."""
+    root = tmp_path_factory.mktemp("other_process")
+    with (root / "stderr.txt").open("w") as log:  # the child keeps its own copy
+        job = start_process(
+            f"""
+            root = pathlib.Path({str(root)!r})
+            t.run(out=root / "grid")
+            print("READY", flush=True)
+            while not (root / "go").exists():
+                time.sleep(0.01)
+            t.run(t.KILL_POINTS, grid=False, out=root / "killed")
+            print("FINISHED", flush=True)
+            """,
+            devices=1,
+            stderr=log,
+        )
+    yield job, root
+    stop(job)
+
+
+@pytest.fixture(scope="module")
+def other_process_ready(other_process):
+    """The other process once it has written its grid sweep (it then waits for ``go``)."""
+    job, root = other_process
+    line = job.stdout.readline()  # blocks until READY, or "" if the process died
+    assert line.strip() == "READY", (root / "stderr.txt").read_text()[-3000:]
+    return job, root
+
+
 @pytest.fixture(scope="module")
 def grid_result(tmp_path_factory):
     out = tmp_path_factory.mktemp("grid")
-    return run(out=out, progress=True), out
+    with pytest.warns(RuntimeWarning, match="members failed") as caught:
+        ds = run(out=out, progress=True)
+    return ds, out, str(caught[0].message)
+
+
+@jax.jit
+def single(c, d):
+    """One point alone, under jit with the parameters traced (as in the sweep): its metrics,
+    life by `jb.life.iso_life` and `jb.life.lp_life`, and the result code."""
+    m = paths.replace(model(), {"bearing.clearance": c, "bearing.damping": d})
+    sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, throw=False)
+    values = {name: METRICS[name](sol) for name in ("peak_ball_load", "rms_bearing_force")}
+    values["l10_iso_hours"] = jb.life.iso_life(sol, m, t_min=0.0).l10_hours
+    values["l10_lp_mrev"] = jb.life.lp_life(sol, m, t_min=0.0, **GROOVES).l10
+    return values, sol.result._value
 
 
 def test_grid_labels_and_values_match_single_runs(grid_result):
-    ds, out = grid_result
+    ds, out, _ = grid_result
     assert dict(ds.sizes) == {"bearing.clearance": 3, "bearing.damping": 2}
     assert list(ds["peak_ball_load"].dims) == ["bearing.clearance", "bearing.damping"]
     np.testing.assert_array_equal(ds["bearing.clearance"].values, CLEARANCES)
     np.testing.assert_array_equal(ds["bearing.damping"].values, DAMPINGS)
-    assert set(ds.data_vars) == {"peak_ball_load", "rms_bearing_force", "status", "failed"}
+    assert set(ds.data_vars) == set(METRICS) | {"status", "failed"}
     assert ds.attrs["t1"] == T1 and ds.attrs["max_steps"] == MAX_STEPS and ds.attrs["rtol"] == 1e-8
-    assert ds.attrs["jaxbearing_version"] == jb.__version__
     assert json.loads(ds.attrs["status_codes"])[str(MAX_STEPS_REACHED)] == "max_steps_reached"
 
     # the stiffly damped members fail and read NaN; the others succeed
@@ -114,13 +195,7 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
     assert np.isfinite(ds.peak_ball_load.values[:, 0]).all()
 
     # each point run alone, under jit with the parameters traced (as in the sweep): equal to
-    # the last bits
-    @jax.jit
-    def single(c, d):
-        sol = jb.simulate(paths.replace(model(), {"bearing.clearance": c, "bearing.damping": d}),
-                          T1, TS, max_steps=MAX_STEPS, throw=False)
-        return {name: fn(sol) for name, fn in METRICS.items()}, sol.result._value
-
+    # the last bits, bearing life included
     for c in CLEARANCES:
         for d in DAMPINGS:
             values, status = single(c, d)
@@ -130,9 +205,40 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
                 for name in METRICS:
                     np.testing.assert_allclose(float(point[name]), float(values[name]), rtol=1e-12, atol=0)
 
+    # the failed members are reported with their parameters: a warning and an attribute
+    failures = json.loads(ds.attrs["failures"])
+    assert [f["index"] for f in failures] == [1, 3, 5]
+    for f, c in zip(failures, CLEARANCES):
+        assert f["point"] == {"bearing.clearance": c, "bearing.damping": 1e8}
+        assert (f["status"], f["result"]) == (MAX_STEPS_REACHED, "max_steps_reached")
+        assert f["message"] == "The maximum number of solver steps was reached. Try increasing `max_steps`."
+    warning = grid_result[2]
+    assert warning.startswith("sweep: 3 of 6 members failed; their metrics are NaN")
+    assert ("\n  point 3 (bearing.clearance = 4e-05, bearing.damping = 1e+08): max_steps_reached: "
+            "The maximum number of solver steps was reached.") in warning
+
     # written as netCDF, same content
     with xr.open_dataset(out / "results.nc") as saved:
         assert_same(ds, saved.load())
+
+
+def test_results_record_versions_and_every_model_parameter(grid_result):
+    ds, out, _ = grid_result
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["versions"] == json.loads(ds.attrs["versions"]) == provenance.versions()
+    assert set(manifest["versions"]) == {"python", "jaxbearing", "jax", "jaxlib", "diffrax", "equinox", "numpy"}
+    recorded = manifest["model_parameters"]
+    assert recorded == json.loads(ds.attrs["model_parameters"])
+    # every parameter of the model by its path, the swept ones marked: with the coordinates and
+    # the settings (attribute simulate_kwargs) they are the whole input of each member
+    assert recorded["forces.0.bearing.clearance"] == recorded["forces.0.bearing.damping"] == "swept"
+    full = provenance.parameters(model())
+    assert recorded.keys() == full.keys()
+    assert {k for k in full if full[k] != recorded[k]} == {"forces.0.bearing.clearance", "forces.0.bearing.damping"}
+    assert json.loads(ds.attrs["simulate_kwargs"])["max_steps"] == MAX_STEPS
+    with xr.open_dataset(out / "results.nc") as saved:
+        for key in ("versions", "model_parameters", "failures", "simulate_kwargs", "model_fingerprint"):
+            assert saved.attrs[key] == ds.attrs[key], key
 
 
 def test_progress_bar_counts_chunks(tmp_path, capsys):
@@ -143,8 +249,8 @@ def test_progress_bar_counts_chunks(tmp_path, capsys):
 
 
 def test_list_of_points(grid_result):
-    grid, _ = grid_result
-    points = {"bearing.clearance": [60e-6, 20e-6, 40e-6], "bearing.damping": [300.0, 3e5, 300.0]}
+    grid = grid_result[0]
+    points = {"bearing.clearance": [60e-6, 20e-6, 40e-6], "bearing.damping": [300.0, 1e8, 300.0]}
     ds = run(points, grid=False)
     assert dict(ds.sizes) == {"point": 3}
     np.testing.assert_array_equal(ds["bearing.clearance"].values, points["bearing.clearance"])
@@ -158,7 +264,7 @@ def test_list_of_points(grid_result):
 
 
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, grid_result):
-    reference, _ = grid_result
+    reference = grid_result[0]
     calls = []
     original = sweep_module._ChunkRunner.__call__
 
@@ -207,7 +313,7 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, gr
 def test_a_chunk_that_raises_is_rerun_point_by_point(tmp_path, monkeypatch, grid_result):
     """An error raised inside the solve (an equinox check) would abort the whole chunk: the
     sweep reruns its points alone and marks only those that still raise."""
-    reference, _ = grid_result
+    reference = grid_result[0]
     real = sweep_module._run_chunk
 
     def raising(model, rows, *args):
@@ -216,33 +322,37 @@ def test_a_chunk_that_raises_is_rerun_point_by_point(tmp_path, monkeypatch, grid
         return real(model, rows, *args)
 
     monkeypatch.setattr(sweep_module, "_run_chunk", raising)
-    with pytest.warns(RuntimeWarning, match="chunk 1 raised"):
+    with pytest.warns(RuntimeWarning) as caught:
         ds = run(out=tmp_path)
+    assert "chunk 1 raised" in str(caught[0].message)
     bad = ds["bearing.clearance"] == 40e-6
     assert (ds.status.where(bad, drop=True) == sweep_module.RAISED).all()
     assert ds.failed.where(bad, drop=True).all()
     assert np.isnan(ds.peak_ball_load.where(bad, drop=True)).all()
-    errors = json.loads(ds.attrs["errors"])
-    assert [e["point"]["bearing.clearance"] for e in errors] == [40e-6, 40e-6]
-    assert "a check failed" in errors[0]["error"]
+    raised = [f for f in json.loads(ds.attrs["failures"]) if f["result"] == "raised"]
+    assert [f["point"] for f in raised] == [{"bearing.clearance": 40e-6, "bearing.damping": d} for d in DAMPINGS]
+    assert all(f["status"] == sweep_module.RAISED for f in raised)
+    assert raised[0]["message"] == "INTERNAL: a check failed for clearance 40 um"
+    assert "point 2 (bearing.clearance = 4e-05, bearing.damping = 300): raised: INTERNAL: a check failed" in str(caught[-1].message)
     assert_same(ds.where(~bad, drop=True), reference.where(~bad, drop=True))
     # kept in the chunk files: a rerun loads the marks
     monkeypatch.setattr(sweep_module, "_run_chunk", real)
     again = run(out=tmp_path)
     assert again.attrs["sweep_computed_points"] == 0
-    assert again.attrs["errors"] == ds.attrs["errors"]
+    assert again.attrs["failures"] == ds.attrs["failures"]
 
 
 def test_different_arguments_in_the_same_folder_raise(grid_result):
-    _, out = grid_result
+    out = grid_result[1]
     with pytest.raises(ValueError, match=r"parameters.*another `out`"):
         run({"bearing.clearance": [20e-6, 40e-6], "bearing.damping": DAMPINGS}, out=out)
     with pytest.raises(ValueError, match="metrics"):
         run(out=out, metrics={"peak_ball_load": METRICS["peak_ball_load"]})
-    with pytest.raises(ValueError, match="model_fingerprint"):
+    with pytest.raises(ValueError, match=r"model_fingerprint, model_parameters differ .*"
+                       r"model_parameters joints\.1\.speed: stored 62\.83185307179586, now 30\.0"):
         sweep(jb.cases.xu2014(impact=False, crank_speed=30.0), GRID, metrics=METRICS, t1=T1,
               ts=TS, max_steps=MAX_STEPS, chunk_size=CHUNK, progress=False, out=out)
-    with pytest.raises(ValueError, match="simulate"):
+    with pytest.raises(ValueError, match="simulate rtol: stored 1e-08, now 1e-07"):
         run(out=out, rtol=1e-7)
     with pytest.raises(ValueError, match="chunks of 2 points"):
         run(out=out, chunk_size=3)
@@ -257,7 +367,8 @@ def test_corrupted_chunk_names_the_file(tmp_path):
         run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
     with open(chunk, "wb") as f:  # readable, but not what the manifest says
         np.savez(f, start=0, stop=2, points=np.zeros((2, 2)), metric_names=np.array(list(METRICS)),
-                 values=np.zeros((2, 2)), status=np.zeros(2, np.int32), errors=np.array(["", ""]))
+                 values=np.zeros((2, len(METRICS))), status=np.zeros(2, np.int32),
+                 errors=np.array(["", ""]))
     with pytest.raises(ValueError, match="chunk_00000.npz.*parameter values"):
         run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
 
@@ -273,8 +384,86 @@ def test_bad_arguments_are_rejected_before_running():
         run(metrics={"status": METRICS["peak_ball_load"]})
 
 
+def test_resume_under_other_versions_warns_and_records_both(tmp_path):
+    """Versions are recorded, not compared: a resume under others goes on, with a warning."""
+    points = {"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}
+    first = run(points, out=tmp_path)
+    path = tmp_path / "manifest.json"
+    manifest = json.loads(path.read_text())
+    manifest["versions"]["jax"] = "0.0.1"
+    path.write_text(json.dumps(manifest))
+    with pytest.warns(RuntimeWarning, match=rf"resuming .* under other package versions \(jax 0\.0\.1 -> {jax.__version__}\)"):
+        again = run(points, out=tmp_path)
+    assert again.attrs["sweep_computed_points"] == 0
+    assert json.loads(again.attrs["versions_at_start"])["jax"] == "0.0.1"
+    assert json.loads(again.attrs["versions"]) == provenance.versions()
+    assert_same(again, first)
+
+
+def test_sweep_killed_by_sigkill_resumes_with_identical_results(other_process_ready, grid_result):
+    """A real kill: the other process runs the KILL_POINTS sweep and gets SIGKILL as soon as its
+    first chunk file appears. Resumed here, the sweep computes only the missing chunks, leaves
+    the written ones untouched and equals the uninterrupted grid sweep bit for bit."""
+    job, root = other_process_ready
+    reference = grid_result[0]
+    killed = root / "killed"
+    n_points = len(KILL_POINTS["bearing.clearance"])
+    (root / "go").touch()
+    deadline = time.monotonic() + 120.0
+    while not list(killed.glob("chunk_*.npz")):
+        assert job.poll() is None, "the other process ended before writing a chunk"
+        assert time.monotonic() < deadline, "no chunk written within 120 s"
+        time.sleep(0.002)
+    job.send_signal(signal.SIGKILL)
+    assert job.wait() == -signal.SIGKILL
+    written = {p.name: p.stat().st_mtime_ns for p in killed.glob("chunk_*.npz")}
+    assert 1 <= len(written) < n_points // CHUNK, sorted(written)  # killed mid-way
+    assert not (killed / "results.nc").exists()
+
+    resumed = run(KILL_POINTS, grid=False, out=killed)
+    assert resumed.attrs["sweep_computed_points"] == n_points - CHUNK * len(written)
+    for name, stamp in written.items():  # not recomputed, not rewritten
+        assert (killed / name).stat().st_mtime_ns == stamp, name
+    assert not list(killed.glob(".*.tmp"))  # a write cut short by the kill is cleaned up
+
+    expected = {name: np.tile(reference[name].values.ravel(), 2) for name in [*METRICS, "status", "failed"]}
+    for name, values in expected.items():
+        np.testing.assert_array_equal(resumed[name].values, values, err_msg=name)
+    assert resumed.failed.values.sum() == 6  # the members with damping 1e8
+    with xr.open_dataset(killed / "results.nc") as saved:
+        assert_same(saved.load(), resumed)
+    rows = np.stack([expected[name] for name in METRICS], axis=1)
+    for name in written:  # what the killed process wrote is what this one computes
+        k = int(name[6:11])
+        with np.load(killed / name) as before:
+            np.testing.assert_array_equal(before["values"], rows[CHUNK * k : CHUNK * (k + 1)])
+            np.testing.assert_array_equal(before["status"], expected["status"][CHUNK * k : CHUNK * (k + 1)])
+
+
+def test_same_inputs_give_bitwise_identical_results(grid_result, other_process_ready, tmp_path):
+    """Again in this process (the first chunk's points) and in another process (the whole grid,
+    its own compilation): equal bit for bit, in the returned data and in the files."""
+    reference, out, _ = grid_result
+    first_chunk = {"bearing.clearance": CLEARANCES[:1], "bearing.damping": DAMPINGS}
+    assert_same(run(first_chunk, out=tmp_path), reference.isel({"bearing.clearance": [0]}))
+    _, root = other_process_ready
+    other = root / "grid"
+    with xr.open_dataset(other / "results.nc") as there, xr.open_dataset(out / "results.nc") as here:
+        assert_same(there.load(), here.load())
+        assert there.attrs.keys() == here.attrs.keys()
+        for key, value in here.attrs.items():
+            np.testing.assert_array_equal(there.attrs[key], value, err_msg=key)
+    for folder, chunks in ((tmp_path, 1), (other, 3)):
+        for k in range(chunks):
+            name = f"chunk_{k:05d}.npz"
+            with np.load(folder / name) as a, np.load(out / name) as b:
+                assert a.files == b.files
+                for key in b.files:
+                    np.testing.assert_array_equal(a[key], b[key], err_msg=f"{folder} {name} {key}")
+
+
 def test_four_devices_give_the_same_numbers(grid_result, four_devices):
-    reference, _ = grid_result
+    reference = grid_result[0]
     job, out = four_devices
     stdout, stderr = job.communicate(timeout=600)
     assert job.returncode == 0, stderr[-3000:]
@@ -292,7 +481,7 @@ def test_two_processes_with_jax_distributed(grid_result, tmp_path):
     rerun loads it (broadcast from process 0) instead of recomputing."""
     import socket
 
-    reference, _ = grid_result
+    reference = grid_result[0]
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
