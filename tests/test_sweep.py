@@ -361,7 +361,7 @@ def test_different_arguments_in_the_same_folder_raise(grid_result):
         run(out=out, chunk_size=3)
 
 
-def test_corrupted_chunk_names_the_file(tmp_path):
+def test_corrupted_files_are_named(tmp_path):
     run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
     chunk = tmp_path / "chunk_00000.npz"
     good = chunk.read_bytes()
@@ -373,6 +373,10 @@ def test_corrupted_chunk_names_the_file(tmp_path):
                  values=np.zeros((2, len(METRICS))), status=np.zeros(2, np.int32),
                  errors=np.array(["", ""]))
     with pytest.raises(ValueError, match="chunk_00000.npz.*parameter values"):
+        run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
+    manifest = tmp_path / "manifest.json"
+    manifest.write_text(manifest.read_text()[:100])  # cut short
+    with pytest.raises(ValueError, match=r"manifest\.json is unreadable .*delete the folder"):
         run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
 
 
