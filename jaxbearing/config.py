@@ -150,9 +150,10 @@ def _value(name, option, value):
             f"{name} must be a single number in SI units [{option.unit}]; got {_kind(value)} "
             f"{value!r}."
         )
-    if not math.isfinite(value):
+    number = float(value) if abs(value) < 1e308 else math.inf  # huge TOML integers
+    if not math.isfinite(number):
         raise ConfigError(f"{name} must be a finite number [{option.unit}]; got {value!r}.")
-    return float(value)
+    return number
 
 
 def _kind(value) -> str:

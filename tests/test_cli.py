@@ -288,6 +288,7 @@ BAD_CONFIGS = [
     ("[impact.contact_on]\nvalue = 0.05\n", r"impact\.contact_on must be a single number in SI units \[s\]; got a table"),
     ("[bearing]\ndamping = 1979-05-27\n", r"bearing\.damping must be a single number in SI units \[N s/m\]; got a date"),
     ("[crank]\nspeed = nan\n", r"crank\.speed must be a finite number \[rad/s\]; got nan"),
+    ("[crank]\nspeed = " + "9" * 400 + "\n", r"crank\.speed must be a finite number \[rad/s\]; got 999"),
     ('[bearing]\ncage = "free"\n', r"bearing\.cage must be one of 'kinematic', 'constant'; got the string 'free'"),
     ("[bearing]\nball_force = 1\n", r"bearing\.ball_force must be one of 'paper', 'smooth'; got the number 1"),
     ("[bearing]\nclearance = -4e-5\n", r"bearing clearance must be zero or positive \[m\]; got -4e-05\."),
