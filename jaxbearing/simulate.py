@@ -30,6 +30,7 @@ from .multibody.mechanism import Mechanism
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
+INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 
 
 class RESULTS(diffrax.RESULTS):
@@ -325,7 +326,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     cell_ends = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
 
     def segment(carry, slot):
-        t_start, cell, y_start, approach, in_contact, out_y, out_approach, done, result, steps, rejected = carry
+        t_start, cell, dt, y_start, approach, in_contact, out_y, out_approach, done, result, steps, rejected = carry
         t_stop = cell_ends[cell]
         meter = (
             diffrax.NoProgressMeter()
@@ -337,7 +338,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
             solver,
             t_start,
             t_stop,
-            None,
+            jnp.minimum(dt, t_stop - t_start),
             y_start,
             args=(approach, in_contact),
             saveat=diffrax.SaveAt(
@@ -382,9 +383,14 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
         t_reached = jnp.where(done, t_start, t_end)
         cell_done = ok & ~hit
         finished = done | ~ok | (cell_done & (cell == time_cells - 1))  # reached t1, or failed
+        # the next segment starts with the mean accepted step of this one (no step-size search;
+        # no gradient through the step sizes, as in diffrax's controllers)
+        accepted = sol.stats["num_accepted_steps"]
+        mean_step = jax.lax.stop_gradient((t_end - t_start) / jnp.maximum(accepted, 1))
         carry = (
             jnp.where(finished, t1, t_end),
             jnp.where(cell_done & ~finished, cell + 1, cell),
+            jnp.where(done | (accepted == 0), dt, mean_step),
             jnp.where(done, y_start, y_end),
             approach,
             in_contact,
@@ -400,6 +406,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     init = (
         t0,
         jnp.asarray(0),
+        (t1 - t0) * INITIAL_STEP,
         y0,
         jnp.zeros(n_contacts),
         jnp.zeros(n_contacts, bool),
@@ -411,7 +418,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
         jnp.asarray(0),
     )
     final, records = jax.lax.scan(segment, init, jnp.arange(time_cells + max_segments))
-    _, _, _, _, _, out_y, out_approach, done, result, steps, rejected = final
+    _, _, _, _, _, _, out_y, out_approach, done, result, steps, rejected = final
     onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(done, result, RESULTS.max_segments_reached)
