@@ -1,0 +1,416 @@
+"""The performance figures of jaxbearing, measured in one run on this machine (issue 5).
+
+    python benchmarks/run.py [--repeats 5] [--json benchmarks/results.json] [--quick]
+
+What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
+
+- one simulation after compilation (median of ``--repeats``) for each solver row of `SOLVERS`:
+  the default (Tsit5), Dopri5 and Kvaerno5, with steps taken and rejected, and Kvaerno5 with
+  the smooth ball force (the model for gradients);
+- compile time of a forward run and of a 3-parameter forward-mode gradient, and the cost of that
+  gradient (clearance, restitution, ball stiffness; smooth ball force, smooth peak ball load)
+  relative to one forward run of the same model and metric;
+- the SciPy baseline (`benchmarks/scipy_baseline.py`: the same equations in NumPy, `solve_ivp`
+  with exact contact events) for LSODA, BDF, Radau and RK45; the fastest one that stays accurate
+  sets the speed ratio;
+- sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
+  restitution on 1 and on 2 CPU devices;
+- peak memory (maximum resident set size) of each measurement.
+
+Accuracy: every timed run is compared with a reference run of the default solver at
+tolerances 1000x tighter (rtol 1e-11, atol 1e-13): positions (x, y of every body) within 1e-7 m at
+all output times, ball loads within 0.5 N at the Table-5 times, and every contact onset found.
+A sweep member's peak ball load and peak bearing force are compared with those of a reference run
+at its point (within 1e-3 relative), the gradient's forward run like a single run. A row that fails
+its check is marked.
+
+Each measurement runs in a fresh Python process (``--item``), so that compile times start cold,
+peak memory is its own and the device count can differ; the parent prints the table and writes
+the JSON. ``--quick`` (0.06 s, 1 repeat, a 2 x 2 sweep, RK45 only) checks that the command works.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import types
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+T1 = 0.2
+N_TS = 2001
+RTOL, ATOL = 1e-8, 1e-10  # simulate's defaults
+REFERENCE_FACTOR = 1e-3  # reference tolerances relative to the timed ones
+POSITION_TOLERANCE = 1e-7  # [m]
+LOAD_TOLERANCE = 0.5  # [N]
+POSITIONS = [0, 1, 3, 4, 6, 7, 9, 10]  # x, y of every body
+SOLVERS = (  # (row label, solver name, ball force)
+    ("default (Tsit5)", "default", "paper"),
+    ("Dopri5", "dopri5", "paper"),
+    ("Kvaerno5", "kvaerno5", "paper"),
+    ("Kvaerno5, smooth force", "kvaerno5", "smooth"),
+)
+SCIPY_METHODS = ("LSODA", "BDF", "Radau", "RK45")
+SCIPY_MAX_WALL = 300.0  # [s] cap per SciPy run
+GRADIENT_NAMES = ("bearing.clearance", "impact.restitution", "bearing.stiffness")
+SWEEP_CLEARANCES = (20e-6, 80e-6)  # [m] range of the sweep grid
+SWEEP_RESTITUTIONS = (0.5, 0.95)
+
+
+# -- the child processes ----------------------------------------------------------------------
+
+
+def _jax():
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import jaxbearing as jb
+
+    return jax, jb
+
+
+def _solver(name):
+    import diffrax
+
+    _, jb = _jax()
+    return {"default": None, "tsit5": diffrax.Tsit5(), "dopri5": diffrax.Dopri5(), "kvaerno5": jb.kvaerno5()}[name]
+
+
+def _timed(fn):
+    jax, _ = _jax()
+    start = time.perf_counter()
+    out = jax.block_until_ready(fn())
+    return out, time.perf_counter() - start
+
+
+def _median_wall(fn, repeats):
+    return statistics.median(_timed(fn)[1] for _ in range(repeats))
+
+
+def _ts(t1):
+    return np.linspace(0.0, t1, N_TS)
+
+
+def _reference(args):
+    """Reference runs (paper and smooth ball force) at 1000x tighter tolerances, saved to npz."""
+    _, jb = _jax()
+    out = {}
+    for force in ("paper", "smooth"):
+        model = jb.cases.xu2014(impact=True, ball_force=force)
+        sol = jb.simulate(
+            model, args.t1, _ts(args.t1), rtol=RTOL * REFERENCE_FACTOR, atol=ATOL * REFERENCE_FACTOR,
+            max_steps=2_000_000,
+        )
+        out[f"{force}_q"] = np.asarray(sol.q)
+        out[f"{force}_ball_loads"] = np.asarray(sol.ball_loads)
+        out[f"{force}_onsets"] = np.asarray(sol.contacts.time)[np.asarray(sol.contacts.valid)]
+        out[f"{force}_steps"] = int(sol.num_steps)
+    np.savez(args.reference, **out)
+    return {"steps": {f: int(out[f"{f}_steps"]) for f in ("paper", "smooth")}}
+
+
+def _load_reference(path, force):
+    data = np.load(path)
+    onsets = data[f"{force}_onsets"]
+    return types.SimpleNamespace(
+        q=data[f"{force}_q"],
+        ball_loads=data[f"{force}_ball_loads"],
+        contacts=types.SimpleNamespace(time=onsets, valid=np.ones(onsets.shape, bool)),
+    )
+
+
+def _table5_index(t1):
+    _, jb = _jax()
+    times = jb.cases.TABLE5_TIMES[jb.cases.TABLE5_TIMES <= t1]
+    return np.searchsorted(_ts(t1), times)
+
+
+def _accuracy(q, ball_loads, onsets, reference, t1) -> dict:
+    idx = _table5_index(t1)
+    ref_onsets = reference.contacts.time
+    position = float(np.max(np.abs(np.asarray(q)[:, POSITIONS] - reference.q[:, POSITIONS])))
+    load = float(np.max(np.abs(np.asarray(ball_loads)[idx] - reference.ball_loads[idx]), initial=0.0))
+    found = len(onsets) == len(ref_onsets)
+    return dict(
+        position_error_m=position,
+        ball_load_error_N=load,
+        onsets=len(onsets),
+        accurate=bool(position <= POSITION_TOLERANCE and load <= LOAD_TOLERANCE and found),
+    )
+
+
+def _onsets(sol):
+    return np.asarray(sol.contacts.time)[np.asarray(sol.contacts.valid)]
+
+
+def _single(args):
+    """One simulation per call: compile time, median wall, steps, accuracy."""
+    _, jb = _jax()
+    model = jb.cases.xu2014(impact=True, ball_force=args.force)
+    solver = _solver(args.solver)
+    ts = _ts(args.t1)
+
+    def run():
+        return jb.simulate(model, args.t1, ts, solver=solver)
+
+    sol, first = _timed(run)
+    wall = _median_wall(run, args.repeats)
+    row = dict(
+        wall_s=wall,
+        compile_s=first - wall,
+        steps=int(sol.num_steps),
+        rejected=int(sol.num_rejected_steps),
+    )
+    row.update(_accuracy(sol.q, sol.ball_loads, _onsets(sol), _load_reference(args.reference, args.force), args.t1))
+    return row
+
+
+def _gradient(args):
+    """Compile and run times of a forward run and of its 3-parameter forward-mode gradient."""
+    import diffrax
+
+    jax, jb = _jax()
+    model = jb.cases.xu2014(impact=True, ball_force="smooth")
+    ts = _ts(args.t1)
+    names = list(GRADIENT_NAMES)
+    x0 = jax.numpy.stack([jb.paths.get(model, n) for n in names])
+
+    def metric(x, adjoint):
+        sol = jb.simulate(jb.paths.replace(model, dict(zip(names, x))), args.t1, ts, adjoint=adjoint)
+        return jb.metrics.smooth_peak_ball_load(sol), sol
+
+    forward = jax.jit(lambda x: metric(x, diffrax.RecursiveCheckpointAdjoint()))
+    gradient = jax.jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
+    (value, sol), first_f = _timed(lambda: forward(x0))
+    wall_f = _median_wall(lambda: forward(x0), args.repeats)
+    grad, first_g = _timed(lambda: gradient(x0))
+    wall_g = _median_wall(lambda: gradient(x0), args.repeats)
+    row = dict(
+        forward_s=wall_f,
+        gradient_s=wall_g,
+        ratio=wall_g / wall_f,
+        compile_forward_s=first_f - wall_f,
+        compile_gradient_s=first_g - wall_g,
+        value_N=float(value),
+        gradient={n: float(g) for n, g in zip(names, grad)},
+        finite=bool(np.all(np.isfinite(np.asarray(grad)))),
+    )
+    row.update(_accuracy(sol.q, sol.ball_loads, _onsets(sol), _load_reference(args.reference, "smooth"), args.t1))
+    row["accurate"] = row["accurate"] and row["finite"]
+    return row
+
+
+def _sweep(args):
+    """Throughput of jb.sweep over an n x n grid, after a first call that compiles."""
+    jax, jb = _jax()
+    from jaxbearing.sweep import default_chunk_size
+
+    model = jb.cases.xu2014(impact=True)
+    grid = {
+        "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, args.sweep_n),
+        "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, args.sweep_n),
+    }
+    ts = _ts(args.t1)
+    kwargs = dict(t1=args.t1, ts=ts, progress=False, chunk_size=args.chunk_size or None)
+    _, first = _timed(lambda: jb.sweep(model, grid, **kwargs).peak_ball_load.values)
+    start = time.perf_counter()
+    ds = jb.sweep(model, grid, **kwargs)
+    wall = time.perf_counter() - start
+    # the member at the grid's last corner against a reference run there at 1000x tighter
+    # tolerances; 1e-3 relative: at that point the default tolerances' own error in these peaks is
+    # 2.6e-4, and a batch takes other steps than a single run (3e-4 apart)
+    point = {k: float(v[-1]) for k, v in grid.items()}
+    reference = jb.simulate(
+        jb.paths.replace(model, point), args.t1, ts, rtol=RTOL * REFERENCE_FACTOR, atol=ATOL * REFERENCE_FACTOR,
+        max_steps=2_000_000,
+    )
+    errors = {
+        name: abs(float(ds[name].sel(point)) - float(fn(reference))) / abs(float(fn(reference)))
+        for name, fn in jb.metrics.STANDARD.items()
+        if name in ("peak_ball_load", "peak_bearing_force")
+    }
+    return dict(
+        devices=jax.device_count(),
+        points=int(args.sweep_n**2),
+        chunk_size=args.chunk_size or default_chunk_size(),
+        wall_s=wall,
+        first_call_s=first,
+        throughput=args.sweep_n**2 / wall,
+        failed=int(ds.failed.sum()),
+        relative_error=errors,
+        accurate=bool(max(errors.values()) <= 1e-3 and int(ds.failed.sum()) == 0),
+    )
+
+
+def _scipy(args):
+    """The SciPy baseline with one method, checked against the reference."""
+    sys.path.insert(0, str(HERE))
+    import scipy_baseline
+
+    ts = _ts(args.t1)
+    reference = _load_reference(args.reference, "paper")
+    try:
+        run = scipy_baseline.simulate(args.t1, ts, method=args.method, rtol=RTOL, atol=ATOL, max_wall=args.max_wall)
+    except scipy_baseline.BaselineTimeout as error:
+        return dict(method=args.method, wall_s=None, timeout=str(error), accurate=False)
+    row = dict(method=args.method, wall_s=run["wall_s"], steps=run["steps"], rhs_calls=run["rhs_calls"])
+    row.update(_accuracy(run["q"], run["ball_loads"], run["onset_times"], reference, args.t1))
+    return row
+
+
+ITEMS = {"reference": _reference, "single": _single, "gradient": _gradient, "sweep": _sweep, "scipy": _scipy}
+
+
+# -- the parent -------------------------------------------------------------------------------
+
+
+def _child(item, settings, devices=1, **options):
+    """Run one item in a fresh process; its JSON result with the peak memory [MiB]."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--item", item]
+    for key, value in {**settings, **options}.items():
+        cmd += [f"--{key.replace('_', '-')}", str(value)]
+    env = dict(os.environ)
+    env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={devices}").strip()
+    env.setdefault("JAX_PLATFORMS", "cpu")
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"benchmark item {item} {options} failed:\n{done.stderr[-4000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _fmt(x, spec):
+    return "-" if x is None else format(x, spec)
+
+
+def _ok(row):
+    return "ok" if row.get("accurate") else "INACCURATE"
+
+
+def measure(args) -> dict:
+    """Run every item; print each row as it lands."""
+    settings = dict(t1=args.t1, repeats=args.repeats, reference=args.reference)
+    print(f"reference runs (rtol {RTOL * REFERENCE_FACTOR:g}) ...", flush=True)
+    results = dict(
+        machine=dict(cpus=os.cpu_count(), load_average=os.getloadavg()),
+        t1_s=args.t1,
+        output_times=N_TS,
+        rtol=RTOL,
+        atol=ATOL,
+        reference=_child("reference", settings),
+        single=[],
+        scipy=[],
+        sweep=[],
+    )
+    print("\none simulation after compilation")
+    for label, solver, force in SOLVERS[: args.solver_rows]:
+        row = dict(label=label, **_child("single", settings, solver=solver, force=force))
+        results["single"].append(row)
+        print(
+            f"  {label:24s} {row['wall_s']:7.3f} s  compile {row['compile_s']:5.1f} s  steps {row['steps']:6d} "
+            f"({row['rejected']:5d} rejected)  pos {row['position_error_m']:.1e} m  "
+            f"load {row['ball_load_error_N']:.3f} N  {row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+            flush=True,
+        )
+    row = _child("gradient", settings)
+    results["gradient"] = row
+    print(
+        f"\n3-parameter forward-mode gradient: {row['gradient_s']:.3f} s = {row['ratio']:.2f} x forward "
+        f"({row['forward_s']:.3f} s); compile forward {row['compile_forward_s']:.1f} s, gradient "
+        f"{row['compile_gradient_s']:.1f} s; {row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+        flush=True,
+    )
+    print("\nSciPy baseline (rtol 1e-8, atol 1e-10)")
+    for method in args.scipy_methods.split(","):
+        row = _child("scipy", settings, method=method, max_wall=args.max_wall)
+        results["scipy"].append(row)
+        print(
+            f"  {method:6s} {_fmt(row['wall_s'], '7.2f')} s  steps {row.get('steps', '-')}  "
+            f"pos {_fmt(row.get('position_error_m'), '.1e')} m  load {_fmt(row.get('ball_load_error_N'), '.3f')} N  "
+            f"{row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+            flush=True,
+        )
+    print("\nsweep throughput")
+    for devices in (1, 2):
+        row = _child("sweep", settings, devices=devices, sweep_n=args.sweep_n, chunk_size=args.chunk_size)
+        results["sweep"].append(row)
+        print(
+            f"  {devices} device(s): {row['points']} points in {row['wall_s']:.2f} s = {row['throughput']:.2f} "
+            f"simulations/s (first call {row['first_call_s']:.1f} s, {row['chunk_size']} per device per chunk)  "
+            f"{row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+            flush=True,
+        )
+    results["targets"] = _targets(results)
+    return results
+
+
+def _targets(r) -> dict:
+    """Issue 5's targets, each with the measured figure and whether it is met."""
+    default = r["single"][0]
+    kvaerno = next((row for row in r["single"] if row["label"] == "Kvaerno5"), None)
+    accurate_scipy = [row for row in r["scipy"] if row["accurate"]]
+    fastest = min(accurate_scipy, key=lambda row: row["wall_s"]) if accurate_scipy else None
+    sweep2 = next((row for row in r["sweep"] if row["devices"] == 2), None)
+    targets = {
+        "default solver <= 0.3 s": (default["wall_s"], default["wall_s"] <= 0.3),
+        "compile <= 10 s (forward run)": (default["compile_s"], default["compile_s"] <= 10.0),
+        "3-parameter gradient <= 5x forward": (r["gradient"]["ratio"], r["gradient"]["ratio"] <= 5.0),
+    }
+    if kvaerno:
+        targets["Kvaerno5 <= 5 s"] = (kvaerno["wall_s"], kvaerno["wall_s"] <= 5.0)
+    if fastest:
+        ratio = fastest["wall_s"] / default["wall_s"]
+        targets[f">= 30x faster than SciPy ({fastest['method']})"] = (ratio, ratio >= 30.0)
+    if sweep2:
+        targets[">= 20 simulations/s on 2 CPU devices"] = (sweep2["throughput"], sweep2["throughput"] >= 20.0)
+    return {k: dict(measured=v, met=bool(ok)) for k, (v, ok) in targets.items()}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--json", default=str(HERE / "results.json"))
+    parser.add_argument("--quick", action="store_true", help="a short smoke run of every item")
+    parser.add_argument("--t1", type=float, default=T1)
+    parser.add_argument("--sweep-n", type=int, default=8, help="grid points per swept parameter")
+    parser.add_argument("--chunk-size", type=int, default=0, help="sweep points per device per chunk (0: the sweep's default)")
+    parser.add_argument("--scipy-methods", default=",".join(SCIPY_METHODS))
+    parser.add_argument("--max-wall", type=float, default=SCIPY_MAX_WALL)
+    parser.add_argument("--solver-rows", type=int, default=len(SOLVERS))
+    # child-process options
+    parser.add_argument("--item", choices=sorted(ITEMS))
+    parser.add_argument("--reference")
+    parser.add_argument("--solver")
+    parser.add_argument("--force")
+    parser.add_argument("--method")
+    args = parser.parse_args(argv)
+    if args.item:
+        row = ITEMS[args.item](args)
+        row["peak_memory_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(json.dumps(row))
+        return
+    if args.quick:
+        args.t1, args.repeats, args.sweep_n, args.chunk_size = 0.06, 1, 2, 2
+        args.scipy_methods, args.solver_rows = "RK45", 1
+    with tempfile.TemporaryDirectory() as tmp:
+        args.reference = str(Path(tmp) / "reference.npz")
+        start = time.perf_counter()
+        results = measure(args)
+        results["total_s"] = time.perf_counter() - start
+    print("\ntargets")
+    for name, t in results["targets"].items():
+        print(f"  {name:45s} {t['measured']:8.3f}  {'met' if t['met'] else 'NOT MET'}")
+    Path(args.json).write_text(json.dumps(results, indent=2))
+    print(f"\nwritten {args.json} ({results['total_s']:.0f} s in all)")
+
+
+if __name__ == "__main__":
+    main()
