@@ -30,15 +30,14 @@ How it runs
   bounded by the chunk, whatever the number of points.
 - Under vmap a solver loop runs until its slowest member finishes: points that need many steps
   slow down their chunk, not the others.
-- Chunk size. On CPU devices the default is 4 points per device. Measured on the paper's case
-  with impact (0.2 s, 2001 output times), a vmapped batch of 8 different clearances took 6.2 s
-  against 6.3 s for the same 8 points run one after the other, and a batch of 2 took 2.0 s
-  against 1.8 s: a batch cost about what its members cost serially. Since `simulate` also
-  stops its segments at ``time_cells`` equal intervals (members stay aligned in time), the batch
-  of 8 takes 2.95 s against 6.09 s serially. 4 points per device keep the per-chunk overhead
-  (dispatch, gathering, writing a file) small while a chunk stays short, so little is lost to a
-  slow member (above) or to an interruption. On accelerators the default is 8 points per device;
-  set ``chunk_size`` from a measurement on the machine at hand.
+- Chunk size. On CPU devices the default is 16 points per device. Measured on the paper's case
+  with impact (0.2 s, 2001 output times, an 8 x 8 grid of clearance and restitution,
+  `benchmarks/run.py --only sweep --chunk-size N`): 1.89, 2.32 and 2.88 simulations/s on one
+  device at 4, 8 and 16 points per chunk; 4.03, 4.96 and 5.51 on 2 CPU devices. A batch runs in
+  lock-step to its slowest member, but vectorised evaluation and fewer per-chunk overheads
+  (dispatch, gathering, writing a file) outweigh that; a larger chunk loses more to an
+  interruption. On accelerators the default is 8 points per device (not measured here: set
+  ``chunk_size`` from a measurement on the machine at hand).
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
   ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.
   A chunk that raises at run time (an equinox check inside the solve) is rerun one point at a
@@ -119,7 +118,7 @@ from .simulate import RESULTS, default_solver, simulate
 
 __all__ = ["sweep", "RAISED", "default_chunk_size", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
 
-DEFAULT_CHUNK_SIZE = {"cpu": 4}  # points per device per chunk, by platform (see the module doc)
+DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (see the module doc)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
 DEFAULT_SAMPLES = 2001  # output times when ts is not given
 MANIFEST = "manifest.json"
@@ -167,7 +166,7 @@ def sweep(
         t1: final time [s] of every simulation.
         ts: output times the metrics see (default ``linspace(t0, t1, 2001)``).
         out: folder to write to and resume from (see the module doc), or None.
-        chunk_size: points per device per chunk (default `default_chunk_size()`: 4 on CPU, 8
+        chunk_size: points per device per chunk (default `default_chunk_size()`: 16 on CPU, 8
             on accelerators; or the layout already in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
@@ -420,7 +419,7 @@ def _violation_flags(model, names, points):
 
 
 def default_chunk_size(platform: str | None = None) -> int:
-    """Points per device per chunk when ``chunk_size`` is not given: 4 on CPU devices, 8 on
+    """Points per device per chunk when ``chunk_size`` is not given: 16 on CPU devices, 8 on
     accelerators (the module doc says why)."""
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
