@@ -774,10 +774,15 @@ def l10_hours(
     """L10 life in hours at the simulated mean relative speed: ``method="iso"`` the ISO 281
     rating (C_r/P)^3 (`iso_life`), ``"lp"`` Lundberg–Palmgren from the ball loads (`lp_life`;
     pass ``groove_inner``, ``groove_outer``). Keyword arguments go to that function."""
+    return _life_function(method)(sol, model, **kwargs).l10_hours
+
+
+def _life_function(method):
+    """`iso_life` or `lp_life` by name."""
     if method == "iso":
-        return iso_life(sol, model, **kwargs).l10_hours
+        return iso_life
     if method == "lp":
-        return lp_life(sol, model, **kwargs).l10_hours
+        return lp_life
     raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
 
 
@@ -805,18 +810,16 @@ def metric(
     impact (0.2 s, 2001 output times) 1.3 ms (ISO) and 17 ms (Lundberg–Palmgren, which follows
     64 points of each ring) per member, against 1.7 s for the solve.
     """
-    functions = {"iso": iso_life, "lp": lp_life}
-    if method not in functions:
-        raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
+    function = _life_function(method)
     if unit not in _L10_UNITS:
         raise ValueError(f"unit must be 'hours' or 'mrev'; got {unit!r}.")
     try:
-        inspect.signature(functions[method]).bind(None, None, **kwargs)
+        inspect.signature(function).bind(None, None, **kwargs)
     except TypeError as err:
         raise TypeError(f"life.metric({method!r}): {err}") from None
     return WithModel(functools.partial(_l10, method=method, unit=unit, **kwargs))
 
 
 def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Array:
-    result = (iso_life if method == "iso" else lp_life)(sol, model, **kwargs)
+    result = _life_function(method)(sol, model, **kwargs)
     return result.l10_hours if unit == "hours" else result.l10

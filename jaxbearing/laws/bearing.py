@@ -29,9 +29,14 @@ import numpy as np
 from ..params import BallBearing
 
 
+def _pitch_angles(n_balls: int) -> np.ndarray:
+    """2 pi (r-1)/N_b [rad], the balls' places in the cage, ball 1 first."""
+    return 2.0 * np.pi * np.arange(n_balls) / n_balls
+
+
 def ball_angles(cage_angle, n_balls: int) -> jax.Array:
     """Global angles phi_r = 2 pi (r-1)/N_b + phi_c of the balls [rad] (Eq. 14), ball 1 first."""
-    return 2.0 * jnp.pi * jnp.arange(n_balls) / n_balls + cage_angle
+    return _pitch_angles(n_balls) + jnp.asarray(cage_angle)
 
 
 def ball_directions(cage_angle, n_balls: int) -> tuple[jax.Array, jax.Array]:
@@ -40,7 +45,7 @@ def ball_directions(cage_angle, n_balls: int) -> tuple[jax.Array, jax.Array]:
     By angle addition from the fixed pitch angles 2 pi (r-1)/N_b: two transcendentals per call
     instead of 2 N_b (they dominate the cost of a batched force evaluation).
     """
-    pitch = 2.0 * np.pi * np.arange(n_balls) / n_balls
+    pitch = _pitch_angles(n_balls)
     c, s = jnp.cos(cage_angle), jnp.sin(cage_angle)
     return np.cos(pitch) * c - np.sin(pitch) * s, np.sin(pitch) * c + np.cos(pitch) * s
 
