@@ -189,8 +189,8 @@ def _gradient(args):
         sol = jb.simulate(jb.paths.replace(model, dict(zip(names, x))), args.t1, ts, adjoint=adjoint)
         return jb.metrics.smooth_peak_ball_load(sol), sol
 
-    forward = jax.jit(lambda x: metric(x, diffrax.RecursiveCheckpointAdjoint()))
-    gradient = jax.jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
+    forward = jb.jit(lambda x: metric(x, diffrax.RecursiveCheckpointAdjoint()))
+    gradient = jb.jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
     (value, sol), first_f = _timed(lambda: forward(x0))
     wall_f = _median_wall(lambda: forward(x0), args.repeats)
     grad, first_g = _timed(lambda: gradient(x0))

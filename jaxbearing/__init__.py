@@ -10,6 +10,7 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 """
 
 from . import cases, laws, life, metrics, multibody, paths
+from .compile import jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
@@ -29,6 +30,7 @@ __all__ = [
     "Solution",
     "cases",
     "default_solver",
+    "jit",
     "kvaerno5",
     "laws",
     "life",

@@ -59,10 +59,15 @@ def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
 
 
 def enforce(x, violations: Iterable[tuple[object, str, object]]):
-    """Attach every rule to ``x`` with `eqx.error_if` (usable under jit, vmap and grad)."""
-    for is_wrong, message, _ in violations:
-        x = eqx.error_if(x, jnp.any(jnp.asarray(is_wrong)), message)
-    return x
+    """Attach every rule to ``x`` (usable under jit, vmap and grad): the first violated rule
+    raises its message. One `eqx.branched_error_if` for all rules (one `eqx.error_if` per rule
+    cost 48 ms of tracing each, 1.4 s for the paper's case)."""
+    violations = list(violations)
+    if not violations:
+        return x
+    wrong = jnp.stack([jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in violations])
+    messages = [message for _, message, _ in violations]
+    return eqx.branched_error_if(x, jnp.any(wrong), jnp.argmax(wrong), messages)
 
 
 def positive(name: str, value, unit: str):

@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _checks
+from .compile import jit
 from .laws import bearing as bearing_law
 from .metrics import WithModel
 from .multibody.bodies import GROUND
@@ -677,7 +678,7 @@ def ring_point_loads(
     return _ring_point_loads(joint, body, sol.q, sol.qd, int(points_per_ball))
 
 
-@eqx.filter_jit
+@jit
 def _ring_point_loads(joint, body, q, qd, k):
     nb = joint.bearing.n_balls
     theta = jnp.zeros(q.shape[0], q.dtype) if body == GROUND else q[:, 3 * body + 2]

@@ -26,6 +26,7 @@ import optimistix as optx
 from optimistix._solver.bisection import _BisectionState  # state of the subclass below
 
 from . import _checks
+from .compile import jit
 from .multibody.mechanism import Mechanism
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
@@ -279,11 +280,19 @@ class _EventBisection(optx.Bisection):
         )
 
 
+@jax.jit
+def _accelerations(model, t, q, qd, approach_speeds):
+    """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
+    diffrax traces the vector field six times (measured: 2.1 s of a 4.3 s trace of the paper's
+    case). XLA inlines the call, so the compiled program is unchanged."""
+    return model.accelerations(t, q, qd, approach_speeds)
+
+
 def _concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
 
-@eqx.filter_jit
+@jit
 def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, progress, adjoint):
     rules = model.violations()
     rules.append(
@@ -301,7 +310,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     def vector_field(t, y, args):
         approach, _ = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, model.accelerations(t, q, qd, approach)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach)])
 
     def event_values(t, y, in_contact):
         """One value per contact, negative until its next event: the penetration while apart
@@ -444,7 +453,7 @@ def _outputs(model, ts, ys, approach, contacts, result, t_final, steps, rejected
     safe_qd = jnp.where(valid[:, None], qd, model.qd0)
 
     def at(t, q_, qd_, a_):
-        qdd = model.accelerations(t, q_, qd_, a_)
+        qdd = _accelerations(model, t, q_, qd_, a_)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
         out = {"qdd": qdd, "drift": drift}
         if model.bearings:

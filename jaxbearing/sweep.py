@@ -502,7 +502,7 @@ def _to_host(tree):
     return jax.tree_util.tree_map(np.asarray, tree)
 
 
-@eqx.filter_jit
+@eqx.filter_jit  # XLA's default options: see `jaxbearing.compile`
 def _run_chunk(model, rows, ts, names, metric_items, t1, sim_items, mesh):
     from jax.sharding import PartitionSpec as P
 

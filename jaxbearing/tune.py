@@ -30,6 +30,7 @@ import numpy as np
 import optax
 
 from . import paths as _paths
+from .compile import jit
 from .simulate import simulate
 
 
@@ -70,7 +71,7 @@ def sensitivity(
     return value, {n: grad[i] for i, n in enumerate(names)}
 
 
-@eqx.filter_jit
+@jit
 def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     """Compiled once per metric, parameter names and settings: later calls at other designs
     (arrays of the same shapes) reuse it."""
@@ -149,11 +150,11 @@ def tune(
         if not float(lo[i]) <= float(x0[i]) <= float(hi[i]):
             raise ValueError(f"Initial {n} = {float(x0[i]):.6g} lies outside its bounds.")
 
-    @eqx.filter_jit
+    @jit
     def value_and_grad(x):
         return jax.value_and_grad(lambda x_: loss(_set(model, names, x_ * scales)))(x)
 
-    @eqx.filter_jit
+    @jit
     def update(x, grad, state):
         updates, state = optimizer.update(grad, state, x)
         x = optax.apply_updates(x, updates)

@@ -1,0 +1,41 @@
+"""How jaxbearing compiles: `jit`, `eqx.filter_jit` with the XLA options measured best here.
+
+XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's case markedly
+slower and run it no faster: with ``xla_cpu_use_fusion_emitters`` off, XLA's compile of a 0.2 s
+simulation took 3.8 s instead of 7.2 s, of its 3-parameter forward-mode gradient 7.1 s instead
+of 10.8 s, of Kvaerno5 12.4 s instead of 16.4 s, at equal or lower run time (benchmarks/run.py
+measures the end result). Accelerator backends ignore ``xla_cpu_*`` options.
+
+`sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
+point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
+single kernels round differently (a metric 4e-5 apart), and batches ran no faster.
+
+JAX accepts compiler options on the outermost jit only. `jit` therefore applies them when called
+outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from Python)
+and compiles plainly when called inside one (your own `jax.jit`, `jax.vmap`, `jax.grad`): wrap
+your own functions around `simulate` in `jaxbearing.jit` to keep the options.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import equinox as eqx
+from jax._src.core import trace_state_clean  # True outside every transformation
+
+COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+
+
+def jit(fun=None, **jitkwargs):
+    """`eqx.filter_jit` with `COMPILER_OPTIONS` at the top level (usable as ``@jit`` or
+    ``jit(f, donate=...)``)."""
+    if fun is None:
+        return lambda f: jit(f, **jitkwargs)
+    top = eqx.filter_jit(fun, compiler_options=COMPILER_OPTIONS, **jitkwargs)
+    nested = eqx.filter_jit(fun, **jitkwargs)
+
+    @functools.wraps(fun)
+    def call(*args, **kwargs):
+        return (top if trace_state_clean() else nested)(*args, **kwargs)
+
+    return call
