@@ -1,6 +1,6 @@
 """Planar multibody core: bodies, joints, force elements and the equations of motion (Eq. 36)."""
 
-from .bodies import GROUND, Body, point_force, point_position, point_velocity, rotation
+from .bodies import GROUND, Body, point_force, point_position, point_velocity, rotate
 from .constraints import Driver, Revolute, Translational
 from .forces import BearingJoint, CircleContact, Gravity, SpringDamper
 from .mechanism import Mechanism
@@ -19,5 +19,5 @@ __all__ = [
     "point_force",
     "point_position",
     "point_velocity",
-    "rotation",
+    "rotate",
 ]

@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from .. import _checks
-from .bodies import GROUND, point_position, pose, rotation
+from .bodies import GROUND, point_position, pose, rotate
 
 
 def _point_rows(q, body: int, point, sign: float) -> jax.Array:
@@ -23,7 +23,7 @@ def _point_rows(q, body: int, point, sign: float) -> jax.Array:
     if body == GROUND:
         return rows
     _, theta = pose(q, body)
-    arm = rotation(theta) @ point
+    arm = rotate(theta, point)
     block = jnp.array([[1.0, 0.0, -arm[1]], [0.0, 1.0, arm[0]]])
     return rows.at[:, 3 * body : 3 * body + 3].set(sign * block)
 
@@ -33,7 +33,7 @@ def _point_gamma(q, qd, body: int, point) -> jax.Array:
     if body == GROUND:
         return jnp.zeros(2, q.dtype)
     _, theta = pose(q, body)
-    return rotation(theta) @ point * qd[3 * body + 2] ** 2
+    return rotate(theta, point) * qd[3 * body + 2] ** 2
 
 
 def _angle_row(q, body: int) -> jax.Array:
@@ -106,7 +106,7 @@ class Translational(eqx.Module):
 
     def __call__(self, q, t):
         r, theta = pose(q, self.body)
-        return jnp.stack([self._normal() @ (r - self.origin), theta - self.body_angle])
+        return jnp.stack([jnp.sum(self._normal() * (r - self.origin)), theta - self.body_angle])
 
     def jacobian(self, q, t):
         row = jnp.zeros((1, q.shape[0]), q.dtype).at[0, 3 * self.body : 3 * self.body + 2].set(

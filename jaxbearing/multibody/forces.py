@@ -16,7 +16,7 @@ from .. import _checks
 from ..laws import bearing as bearing_law
 from ..laws import impact as impact_law
 from ..params import BallBearing, Impact
-from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotation
+from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotate
 
 
 def _safe_norm(x):
@@ -149,11 +149,11 @@ class CircleContact(eqx.Module):
         penetration = self.radius_j + self.radius_k - distance
         v_j = point_velocity(q, qd, self.body_j, self.centre_j)
         v_k = point_velocity(q, qd, self.body_k, self.centre_k)
-        rate = -(v_k - v_j) @ n
+        rate = -jnp.sum((v_k - v_j) * n)
         # slip of the surface points: centre velocities plus rotation times the radius arm
         omega_j = _angle_and_speed(q, qd, self.body_j)[1]
         omega_k = _angle_and_speed(q, qd, self.body_k)[1]
-        slip = (v_k - v_j) @ t - omega_k * self.radius_k - omega_j * self.radius_j
+        slip = jnp.sum((v_k - v_j) * t) - omega_k * self.radius_k - omega_j * self.radius_j
         return penetration, rate, n, t, slip
 
     def active(self, t):
@@ -179,8 +179,8 @@ class CircleContact(eqx.Module):
         _, theta_j = pose(q, self.body_j)
         _, theta_k = pose(q, self.body_k)
         # surface points in body frames: c + A^T (R n)
-        g_j = self.centre_j + rotation(theta_j).T @ (self.radius_j * n)
-        g_k = self.centre_k - rotation(theta_k).T @ (self.radius_k * n)
+        g_j = self.centre_j + rotate(-theta_j, self.radius_j * n)
+        g_k = self.centre_k - rotate(-theta_k, self.radius_k * n)
         return point_force(q, self.body_k, g_k, on_k) + point_force(q, self.body_j, g_j, -on_k)
 
 
