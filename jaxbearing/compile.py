@@ -21,7 +21,12 @@ from __future__ import annotations
 import functools
 
 import equinox as eqx
-from jax._src.core import trace_state_clean  # True outside every transformation
+
+try:  # True outside every transformation; private, so without it the options are not applied
+    from jax._src.core import trace_state_clean
+except ImportError:  # pragma: no cover
+    def trace_state_clean() -> bool:
+        return False
 
 COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
 
