@@ -3,17 +3,17 @@
 XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's case markedly
 slower and run it no faster: with ``xla_cpu_use_fusion_emitters`` off, XLA's compile of a 0.2 s
 simulation took 3.8 s instead of 7.2 s, of its 3-parameter forward-mode gradient 7.1 s instead
-of 10.8 s, of Kvaerno5 12.4 s instead of 16.4 s, at equal or lower run time (benchmarks/run.py
-measures the end result). Accelerator backends ignore ``xla_cpu_*`` options.
+of 10.8 s, of Kvaerno5 with the smooth ball force 12.4 s instead of 16.4 s, at equal or lower run
+time (benchmarks/run.py measures the end result). Accelerator backends ignore ``xla_cpu_*`` options.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
 single kernels round differently (a metric 4e-5 apart), and batches ran no faster.
 
 JAX accepts compiler options on the outermost jit only. `jit` therefore applies them when called
-outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from Python)
-and compiles plainly when called inside one (your own `jax.jit`, `jax.vmap`, `jax.grad`): wrap
-your own functions around `simulate` in `jaxbearing.jit` to keep the options.
+outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from
+Python) and compiles plainly when called inside one (your own `jax.jit`, `jax.vmap`,
+`jax.grad`): wrap your own functions around `simulate` in `jaxbearing.jit` to keep the options.
 """
 
 from __future__ import annotations

@@ -218,10 +218,10 @@ class SpringDamper(eqx.Module):
         d = point_position(q, self.body_j, self.point_j) - point_position(q, self.body_i, self.point_i)
         length = _safe_norm(d)
         u = d / jnp.where(length > 0.0, length, 1.0)
-        rate = (
-            point_velocity(q, qd, self.body_j, self.point_j)
-            - point_velocity(q, qd, self.body_i, self.point_i)
-        ) @ u
+        relative_velocity = point_velocity(q, qd, self.body_j, self.point_j) - point_velocity(
+            q, qd, self.body_i, self.point_i
+        )
+        rate = jnp.sum(relative_velocity * u)
         tension = impact_law.spring_damper(length - self.free_length, rate, self.stiffness, self.damping)
         return point_force(q, self.body_i, self.point_i, tension * u) + point_force(
             q, self.body_j, self.point_j, -tension * u
