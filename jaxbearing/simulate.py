@@ -17,6 +17,9 @@ segments than that fails loudly.
 
 from __future__ import annotations
 
+import math
+from typing import NamedTuple
+
 import equinox as eqx
 import equinox.internal as eqxi
 import diffrax
@@ -27,11 +30,13 @@ from optimistix._solver.bisection import _BisectionState  # state of the subclas
 
 from . import _checks
 from .compile import jit
+from .laws.bearing import BALL_RELEASE
 from .multibody.mechanism import Mechanism
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
+EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 
 
 class RESULTS(diffrax.RESULTS):
@@ -174,7 +179,7 @@ def simulate(
     atol: float = 1e-10,
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
     max_steps: int = 200_000,
-    max_segments: int = 64,
+    max_segments: int | None = None,
     time_cells: int = 64,
     throw: bool = True,
     progress: str | None = None,
@@ -193,8 +198,9 @@ def simulate(
             icoeff=0.3)` (on the paper's case with impact the PI terms halve the rejected steps
             of Tsit5 against the plain I controller: 2187 against 4917, 8 % fewer steps).
         max_steps: step limit of each segment.
-        max_segments: contact events allowed (each onset and each separation starts a
-            segment); the run fails if it needs more.
+        max_segments: events allowed (each contact onset and separation, and each engagement
+            and release of a paper-force ball, starts a segment); the run fails if it needs
+            more. Default: `default_max_segments`.
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver (measured: about 1.3 steps).
@@ -214,6 +220,8 @@ def simulate(
     ts = jnp.asarray(ts, dtype=jnp.float64)
     if _concrete(t1) and _concrete(t0) and not float(t1) > float(t0):
         raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+    if max_segments is None:
+        max_segments = default_max_segments(model, t0, t1)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
@@ -237,6 +245,17 @@ def simulate(
     if throw:
         sol = _raise_on_failure(sol, t1)
     return sol
+
+
+def default_max_segments(model: Mechanism, t0, t1) -> int:
+    """Events `simulate` allows by default: 1 for a model without contacts or paper-force balls,
+    else 64 + `EVENT_RATE` (t1 - t0) rounded up to a power of two, so that runs of similar spans
+    share one compiled solve (a traced span counts as 1 s). README gives the event counts of the
+    paper's case."""
+    if not model.contacts and not model.n_switched_balls:
+        return 1
+    span = float(t1) - float(t0) if _concrete(t1) and _concrete(t0) else 1.0
+    return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
 
 
 def _ahead(ts, t_start, t_end, done):
@@ -284,15 +303,34 @@ class _EventBisection(optx.Bisection):
 
 
 @jax.jit
-def _accelerations(model, t, q, qd, approach_speeds):
+def _accelerations(model, t, q, qd, approach_speeds, engaged):
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field six times (measured: 2.1 s of a 4.3 s trace of the paper's
     case). XLA inlines the call, so the compiled program is unchanged."""
-    return model.accelerations(t, q, qd, approach_speeds)
+    return model.accelerations(t, q, qd, approach_speeds, engaged)
 
 
 def _concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
+
+
+class _Carry(NamedTuple):
+    """State of the segment loop between two segments."""
+
+    t: jax.Array  # start of the next segment [s]
+    cell: jax.Array  # index of the time cell it lies in
+    dt: jax.Array  # its first step [s]
+    y: jax.Array  # state [q, qd] at t
+    approach: jax.Array  # (n_contacts,) approach speed of each contact's current contact [m/s]
+    in_contact: jax.Array  # (n_contacts,) bool
+    engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
+    out_y: jax.Array  # (T, 2n) states at the output times, NaN where not yet reached
+    out_approach: jax.Array  # (T, n_contacts) approach speeds in force at the output times
+    out_engaged: jax.Array  # (T, n_switched_balls) engaged balls at the output times
+    done: jax.Array  # reached t1 or failed
+    result: RESULTS
+    steps: jax.Array
+    rejected: jax.Array
 
 
 @jit
@@ -308,27 +346,33 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
     n = model.n_coordinates
     n_contacts = len(model.contacts)
+    n_balls = model.n_switched_balls
     T = ts.shape[0]
 
     def vector_field(t, y, args):
-        approach, _ = args
+        approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
 
-    def event_values(t, y, in_contact):
-        """One value per contact, negative until its next event: the penetration while apart
-        (onset at 0), -(penetration + SEPARATION_OFFSET) while touching, -1 while switched off."""
-        penetration, _ = model.contact_gaps(y[:n], y[n:])
-        value = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
-        active = jnp.stack([c.active(t) for c in model.contacts])
-        return jnp.where(active, value, -1.0)
+    def event_values(t, y, in_contact, engaged):
+        """One value per contact, then one per switched ball, each negative until its next
+        event. Contacts: the penetration while apart (onset at 0), -(penetration +
+        SEPARATION_OFFSET) while touching, -1 while switched off. Balls: delta_r while free
+        (engages at 0), -(delta_r + BALL_RELEASE) while engaged."""
+        q, qd = y[:n], y[n:]
+        penetration, _ = model.contact_gaps(q, qd)
+        contact = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
+        active = jnp.stack([c.active(t) for c in model.contacts]) if n_contacts else contact > 0
+        delta = model.ball_deflections(t, q)
+        ball = jnp.where(engaged, -(delta + BALL_RELEASE), delta)
+        return jnp.concatenate([jnp.where(active, contact, -1.0), ball])
 
     def first_event(t, y, args, **kwargs):
         # every value starts a segment negative, so the maximum crosses zero at the first event
-        return jnp.max(event_values(t, y, args[1]))
+        return jnp.max(event_values(t, y, args[1], args[2]))
 
     event = None
-    if n_contacts:
+    if n_contacts + n_balls:
         event = diffrax.Event(
             first_event,
             root_finder=_EventBisection(rtol=0.0, atol=EVENT_TIME_TOLERANCE),
@@ -337,24 +381,23 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     term = diffrax.ODETerm(vector_field)
     cell_ends = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
 
-    def segment(carry, slot):
-        t_start, cell, dt, y_start, approach, in_contact, out_y, out_approach, done, result, steps, rejected = carry
-        t_stop = cell_ends[cell]
+    def segment(c: _Carry, slot):
+        t_stop = cell_ends[c.cell]
         meter = (
             diffrax.NoProgressMeter()
             if progress is None
-            else _Progress(t_start=t_start, t0=t0, t1=t1, label=progress)
+            else _Progress(t_start=c.t, t0=t0, t1=t1, label=progress)
         )
         sol = diffrax.diffeqsolve(
             term,
             solver,
-            t_start,
+            c.t,
             t_stop,
-            jnp.minimum(dt, t_stop - t_start),
-            y_start,
-            args=(approach, in_contact),
+            jnp.minimum(c.dt, t_stop - c.t),
+            c.y,
+            args=(c.approach, c.in_contact, c.engaged),
             saveat=diffrax.SaveAt(
-                subs=[diffrax.SubSaveAt(ts=_ahead(ts, t_start, t_stop, done)), diffrax.SubSaveAt(t1=True)]
+                subs=[diffrax.SubSaveAt(ts=_ahead(ts, c.t, t_stop, c.done)), diffrax.SubSaveAt(t1=True)]
             ),
             stepsize_controller=controller,
             event=event,
@@ -365,110 +408,121 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
         )
         (_, t_end), (ys, y_end) = sol.ts, sol.ys
         t_end, y_end = t_end[0], y_end[0]
-        ys = _behind(ys, ts, t_start)
+        ys = _behind(ys, ts, c.t)
         ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
-        hit = sol.result == diffrax.RESULTS.event_occurred
+        hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
         # outputs of this segment: output times in [t_start, t_end]
-        mine = (~done) & (ts >= t_start) & (ts <= t_end)
-        out_y = jnp.where(mine[:, None], ys, out_y)
-        out_approach = jnp.where(mine[:, None], approach[None, :], out_approach)
-        # contact bookkeeping at the event
-        if n_contacts:
-            values = event_values(t_end, y_end, in_contact)
-            triggered = (jnp.arange(n_contacts) == jnp.argmax(values)) & hit & ~done
-            _, rate = model.contact_gaps(y_end[:n], y_end[n:])
-            onset = triggered & ~in_contact
-            approach = jnp.where(onset, rate, approach)
-            in_contact = jnp.where(triggered, ~in_contact, in_contact)
-            has_onset = jnp.any(onset)
-            record = (
-                jnp.where(has_onset, t_end, jnp.nan),
-                jnp.where(has_onset, jnp.sum(jnp.where(onset, rate, 0.0)), jnp.nan),
-                jnp.where(has_onset, jnp.argmax(onset), -1),
-                has_onset,
-            )
-        else:
-            record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
-        result = RESULTS.where(done | ok, result, RESULTS.promote(sol.result))
-        steps = steps + jnp.where(done, 0, sol.stats["num_steps"])
-        rejected = rejected + jnp.where(done, 0, sol.stats.get("num_rejected_steps", 0))
-        t_reached = jnp.where(done, t_start, t_end)
+        mine = ((~c.done) & (ts >= c.t) & (ts <= t_end))[:, None]
+        out_y = jnp.where(mine, ys, c.out_y)
+        out_approach = jnp.where(mine, c.approach[None, :], c.out_approach)
+        out_engaged = jnp.where(mine, c.engaged[None, :], c.out_engaged)
+        # switch what the event found: the located one and any other already across
+        approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
+        record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+        if event is not None:
+            values = event_values(t_end, y_end, in_contact, engaged)
+            located = jnp.arange(values.shape[0]) == jnp.argmax(values)
+            switch = (located | (values > 0)) & hit
+            contact_switch, ball_switch = switch[:n_contacts], switch[n_contacts:]
+            engaged = jnp.where(ball_switch, ~engaged, engaged)
+            if n_contacts:
+                _, rate = model.contact_gaps(y_end[:n], y_end[n:])
+                onset = contact_switch & ~in_contact
+                approach = jnp.where(onset, rate, approach)
+                in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
+                has_onset = jnp.any(onset)
+                record = (
+                    jnp.where(has_onset, t_end, jnp.nan),
+                    jnp.where(has_onset, jnp.sum(jnp.where(onset, rate, 0.0)), jnp.nan),
+                    jnp.where(has_onset, jnp.argmax(onset), -1),
+                    has_onset,
+                )
+        result = RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result))
+        steps = c.steps + jnp.where(c.done, 0, sol.stats["num_steps"])
+        rejected = c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0))
+        t_reached = jnp.where(c.done, c.t, t_end)
         cell_done = ok & ~hit
-        finished = done | ~ok | (cell_done & (cell == time_cells - 1))  # reached t1, or failed
+        finished = c.done | ~ok | (cell_done & (c.cell == time_cells - 1))  # reached t1, or failed
         # the next segment starts with the mean accepted step of this one (no step-size search;
         # no gradient through the step sizes, as in diffrax's controllers)
         accepted = sol.stats["num_accepted_steps"]
-        mean_step = jax.lax.stop_gradient((t_end - t_start) / jnp.maximum(accepted, 1))
-        carry = (
-            jnp.where(finished, t1, t_end),
-            jnp.where(cell_done & ~finished, cell + 1, cell),
-            jnp.where(done | (accepted == 0), dt, mean_step),
-            jnp.where(done, y_start, y_end),
-            approach,
-            in_contact,
-            out_y,
-            out_approach,
-            finished,
-            result,
-            steps,
-            rejected,
+        mean_step = jax.lax.stop_gradient((t_end - c.t) / jnp.maximum(accepted, 1))
+        carry = _Carry(
+            t=jnp.where(finished, t1, t_end),
+            cell=jnp.where(cell_done & ~finished, c.cell + 1, c.cell),
+            dt=jnp.where(c.done | (accepted == 0), c.dt, mean_step),
+            y=jnp.where(c.done, c.y, y_end),
+            approach=approach,
+            in_contact=in_contact,
+            engaged=engaged,
+            out_y=out_y,
+            out_approach=out_approach,
+            out_engaged=out_engaged,
+            done=finished,
+            result=result,
+            steps=steps,
+            rejected=rejected,
         )
-        return carry, record + (t_reached, ~done)
+        return carry, record + (t_reached, ~c.done)
 
-    init = (
-        t0,
-        jnp.asarray(0),
-        (t1 - t0) * INITIAL_STEP,
-        y0,
-        jnp.zeros(n_contacts),
-        jnp.zeros(n_contacts, bool),
-        jnp.full((T, 2 * n), jnp.nan),
-        jnp.zeros((T, n_contacts)),
-        jnp.asarray(False),
-        RESULTS.successful,
-        jnp.asarray(0),
-        jnp.asarray(0),
+    init = _Carry(
+        t=t0,
+        cell=jnp.asarray(0),
+        dt=(t1 - t0) * INITIAL_STEP,
+        y=y0,
+        approach=jnp.zeros(n_contacts),
+        in_contact=jnp.zeros(n_contacts, bool),
+        engaged=model.ball_deflections(t0, model.q0) > 0.0,
+        out_y=jnp.full((T, 2 * n), jnp.nan),
+        out_approach=jnp.zeros((T, n_contacts)),
+        out_engaged=jnp.zeros((T, n_balls), bool),
+        done=jnp.asarray(False),
+        result=RESULTS.successful,
+        steps=jnp.asarray(0),
+        rejected=jnp.asarray(0),
     )
     final, records = jax.lax.scan(segment, init, jnp.arange(time_cells + max_segments))
-    _, _, _, _, _, _, out_y, out_approach, done, result, steps, rejected = final
     onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
-    result = RESULTS.where(done, result, RESULTS.max_segments_reached)
+    result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
     return _outputs(
         model,
         ts,
-        out_y,
-        out_approach,
+        final.out_y,
+        final.out_approach,
+        final.out_engaged,
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         result,
         t_final,
-        steps,
-        rejected,
+        final.steps,
+        final.rejected,
         jnp.sum(used),
     )
 
 
-def _outputs(model, ts, ys, approach, contacts, result, t_final, steps, rejected, n_used):
+def _outputs(model, ts, ys, approach, engaged, contacts, result, t_final, steps, rejected, n_used):
     n = model.n_coordinates
     q, qd = ys[:, :n], ys[:, n:]
     valid = jnp.isfinite(ys).all(axis=1)
     safe_q = jnp.where(valid[:, None], q, model.q0)
     safe_qd = jnp.where(valid[:, None], qd, model.qd0)
 
-    def at(t, q_, qd_, a_):
-        qdd = _accelerations(model, t, q_, qd_, a_)
+    def at(t, q_, qd_, a_, e_):
+        qdd = _accelerations(model, t, q_, qd_, a_, e_)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
         out = {"qdd": qdd, "drift": drift}
         if model.bearings:
             joint = model.bearings[0]
-            loads, cage = joint.ball_loads(t, q_, qd_, model.q0, model.qd0)
-            out.update(ball_loads=loads, cage=cage, bearing_force=joint.force(t, q_, qd_, model.q0, model.qd0))
+            first = model.engaged_by_bearing(e_)[0]
+            loads, cage = joint.ball_loads(t, q_, qd_, model.q0, model.qd0, first)
+            force = joint.force(t, q_, qd_, model.q0, model.qd0, first)
+            out.update(ball_loads=loads, cage=cage, bearing_force=force)
         if model.contacts:
             out["contact_force"] = model.contacts[0].forces(t, q_, qd_, a_[0])[0]
             out["penetration"] = model.contacts[0].gap(q_, qd_)[0]
         return out
 
-    o = jax.vmap(at)(ts, safe_q, safe_qd, approach)
+    o = jax.vmap(at)(ts, safe_q, safe_qd, approach, engaged)
     nan_where_invalid = lambda x: jnp.where(valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
     o = jax.tree_util.tree_map(nan_where_invalid, o)
     zeros = jnp.zeros_like(ts)

@@ -114,7 +114,7 @@ import numpy as np
 
 from . import _checks, metrics as _metrics, paths, provenance
 from .multibody.mechanism import Mechanism
-from .simulate import RESULTS, default_solver, simulate
+from .simulate import RESULTS, default_max_segments, default_solver, simulate
 
 __all__ = ["sweep", "RAISED", "default_chunk_size", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
 
@@ -194,6 +194,8 @@ def sweep(
     sim_kwargs = _simulate_kwargs(simulate_kwargs)
     t1 = float(t1)
     t0 = float(sim_kwargs.get("t0", 0.0))
+    if sim_kwargs.get("max_segments") is None:
+        sim_kwargs["max_segments"] = default_max_segments(model, t0, t1)
     ts = np.linspace(t0, t1, DEFAULT_SAMPLES) if ts is None else np.asarray(ts, dtype=np.float64)
     if ts.ndim != 1 or ts.size < 1:
         raise ValueError(f"ts must be a non-empty 1-D array of times; got shape {ts.shape}.")

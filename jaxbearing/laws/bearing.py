@@ -14,10 +14,12 @@ clamped at F_r >= 0 (a ball never pulls). The resultant F = sum_r F_r u_r (Eq. 2
 outer-race body, -F on the inner-race body.
 
 Two variants of Eq. 9 (``BallBearing.ball_force``):
-- ``"paper"``: as printed; the damping term jumps on at first touch.
+- ``"paper"``: as printed; the damping term jumps on at first touch. Which balls touch is a
+  discrete state (``engaged``) that `jaxbearing.simulate` switches at events (a ball engages when
+  delta_r crosses 0 upwards and is released when delta_r falls below -`BALL_RELEASE`), so the
+  force is smooth within each solver segment and derivatives include the jump of every switch.
 - ``"smooth"``: the damping term is multiplied by a C1 ramp s(delta/delta_ramp),
-  s(x) = 3x^2 - 2x^3 on [0, 1], so the force is continuous at first touch. Use it for
-  gradients through the simulation (the jump makes derivatives over rattling unreliable).
+  s(x) = 3x^2 - 2x^3 on [0, 1], so the force is continuous at first touch and needs no events.
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..params import BallBearing
+
+BALL_RELEASE = 1e-12  # [m] an engaged ball of the paper force is released at delta_r = -1 pm
 
 
 def _pitch_angles(n_balls: int) -> np.ndarray:
@@ -68,7 +72,9 @@ def ball_deflections(eccentricity, cage_angle, bearing: BallBearing) -> jax.Arra
     return eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
 
 
-def ball_loads(eccentricity, eccentricity_rate, cage_angle, bearing: BallBearing) -> jax.Array:
+def ball_loads(
+    eccentricity, eccentricity_rate, cage_angle, bearing: BallBearing, engaged=None
+) -> jax.Array:
     """Contact force of each ball [N], shape (N_b,), ball 1 first (Eqs. 9, 12–14).
 
     Args:
@@ -76,12 +82,16 @@ def ball_loads(eccentricity, eccentricity_rate, cage_angle, bearing: BallBearing
         eccentricity_rate: v = de/dt [m/s], (2,).
         cage_angle: phi_c [rad]; ball r sits at 2 pi (r-1)/N_b + phi_c.
         bearing: the `BallBearing` parameters (variant chosen by ``bearing.ball_force``).
+        engaged: (N_b,) bool, the balls that touch, for the paper force as switched by
+            `jaxbearing.simulate` (module docstring); None: the balls with delta_r > 0.
+            The smooth force ignores it.
     """
     cos, sin = ball_directions(cage_angle, bearing.n_balls)
     delta = eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
-    touching = delta > 0.0
-    depth = jnp.where(touching, delta, 0.0)  # keeps the gradient of depth**n finite
+    positive = delta > 0.0
+    touching = positive if engaged is None or bearing.ball_force == "smooth" else engaged
+    depth = jnp.where(positive, delta, 0.0)  # keeps the gradient of depth**n finite
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)

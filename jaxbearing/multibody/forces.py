@@ -55,11 +55,15 @@ class BearingJoint(eqx.Module):
         self.inner_point = _checks.as_float(inner_point)
         self.bearing = bearing
 
-    def eccentricity(self, q, qd):
-        """e = r_j^P - r_i^P [m] and its rate v [m/s] (Eqs. 4–5)."""
-        e = point_position(q, self.inner_body, self.inner_point) - point_position(
+    def offset(self, q):
+        """e = r_j^P - r_i^P [m], the eccentricity of the inner race (Eq. 4)."""
+        return point_position(q, self.inner_body, self.inner_point) - point_position(
             q, self.outer_body, self.outer_point
         )
+
+    def eccentricity(self, q, qd):
+        """e = r_j^P - r_i^P [m] and its rate v [m/s] (Eqs. 4–5)."""
+        e = self.offset(q)
         v = point_velocity(q, qd, self.inner_body, self.inner_point) - point_velocity(
             q, qd, self.outer_body, self.outer_point
         )
@@ -77,19 +81,29 @@ class BearingJoint(eqx.Module):
         omega_outer = _angle_and_speed(q0, qd0, self.outer_body)[1]
         return bearing_law.cage_speed(omega_inner, omega_outer, self.bearing) * t
 
-    def ball_loads(self, t, q, qd, q0, qd0):
-        """(N_b,) ball forces [N] and the cage angle [rad]."""
+    @property
+    def switched(self) -> bool:
+        """True for the paper force, whose balls engage and release at events (`simulate`)."""
+        return self.bearing.ball_force == "paper"
+
+    def ball_deflections(self, t, q, q0, qd0):
+        """(N_b,) ball deflections delta_r [m] (Eq. 12), ball 1 first."""
+        return bearing_law.ball_deflections(self.offset(q), self.cage_angle(t, q, q0, qd0), self.bearing)
+
+    def ball_loads(self, t, q, qd, q0, qd0, engaged=None):
+        """(N_b,) ball forces [N] and the cage angle [rad]; ``engaged`` as in
+        `laws.bearing.ball_loads`."""
         e, v = self.eccentricity(q, qd)
         cage = self.cage_angle(t, q, q0, qd0)
-        return bearing_law.ball_loads(e, v, cage, self.bearing), cage
+        return bearing_law.ball_loads(e, v, cage, self.bearing, engaged), cage
 
-    def force(self, t, q, qd, q0, qd0):
+    def force(self, t, q, qd, q0, qd0, engaged=None):
         """Resultant on the outer-race body [N] (Eq. 28)."""
-        loads, cage = self.ball_loads(t, q, qd, q0, qd0)
+        loads, cage = self.ball_loads(t, q, qd, q0, qd0, engaged)
         return bearing_law.resultant(loads, cage)
 
-    def generalized_force(self, t, q, qd, q0, qd0):
-        f = self.force(t, q, qd, q0, qd0)
+    def generalized_force(self, t, q, qd, q0, qd0, engaged=None):
+        f = self.force(t, q, qd, q0, qd0, engaged)
         return point_force(q, self.outer_body, self.outer_point, f) + point_force(
             q, self.inner_body, self.inner_point, -f
         )

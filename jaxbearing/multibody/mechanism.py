@@ -166,21 +166,53 @@ class Mechanism(eqx.Module):
         rhs = gamma - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
         return jac, rhs
 
+    # -- switched balls (paper force, see `laws.bearing`) -----------------------------------
+    @property
+    def n_switched_balls(self) -> int:
+        """Balls of all bearing joints with the paper force, whose contact `simulate` switches."""
+        return sum(b.bearing.n_balls for b in self.bearings if b.switched)
+
+    def ball_deflections(self, t, q) -> jax.Array:
+        """delta_r [m] of the switched balls, bearing by bearing, (n_switched_balls,)."""
+        parts = [b.ball_deflections(t, q, self.q0, self.qd0) for b in self.bearings if b.switched]
+        return jnp.concatenate(parts) if parts else jnp.zeros((0,), q.dtype)
+
+    def engaged_by_bearing(self, engaged):
+        """Split ``engaged`` (n_switched_balls,) into one entry per bearing joint in
+        ``self.forces`` order: its (N_b,) slice, or None for a smooth-force bearing."""
+        parts, start = [], 0
+        for b in self.bearings:
+            if b.switched and engaged is not None:
+                parts.append(engaged[start : start + b.bearing.n_balls])
+                start += b.bearing.n_balls
+            else:
+                parts.append(None)
+        return parts
+
     # -- forces and accelerations ------------------------------------------------------------
-    def generalized_forces(self, t, q, qd, approach_speeds) -> jax.Array:
-        """Q_A: all force elements and contacts, (n_coordinates,) [N, N m]."""
+    def generalized_forces(self, t, q, qd, approach_speeds, engaged=None) -> jax.Array:
+        """Q_A: all force elements and contacts, (n_coordinates,) [N, N m].
+
+        ``engaged`` (n_switched_balls,) bool: which balls of paper-force bearings touch (as
+        switched by `simulate`); None: those with delta_r > 0.
+        """
         total = jnp.zeros_like(q)
+        by_bearing = iter(self.engaged_by_bearing(engaged))
         for element in self.forces:
-            total = total + element.generalized_force(t, q, qd, self.q0, self.qd0)
+            if isinstance(element, BearingJoint):
+                f = element.generalized_force(t, q, qd, self.q0, self.qd0, next(by_bearing))
+            else:
+                f = element.generalized_force(t, q, qd, self.q0, self.qd0)
+            total = total + f
         for c, contact in enumerate(self.contacts):
             total = total + contact.generalized_force(t, q, qd, approach_speeds[c])
         if self.gravity is not None:
             total = total + self.gravity.generalized_force(self.masses, q)
         return total
 
-    def accelerations(self, t, q, qd, approach_speeds) -> jax.Array:
+    def accelerations(self, t, q, qd, approach_speeds, engaged=None) -> jax.Array:
         """q_ddot from Eq. 36 by the Schur complement of the diagonal mass matrix."""
-        forces = self.generalized_forces(t, q, qd, approach_speeds)
+        forces = self.generalized_forces(t, q, qd, approach_speeds, engaged)
         m_inv = self.inverse_mass
         if not self.joints:
             return m_inv * forces

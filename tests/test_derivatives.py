@@ -1,0 +1,105 @@
+"""Every derivative path against converged central differences, for both ball forces, with and
+without impact (issue 15).
+
+The paper's ball force switches each ball's damping on at first touch; `simulate` locates every
+switch as an event, so derivatives include the jump terms. The references are central
+differences whose step comes from a convergence study: steps of 1e-3 ... 1e-6 of the value, the
+two neighbours that agree best define the reference (their mean) and must agree within 0.5 %
+(the difference has converged: truncation below, solver noise above). Solves run at rtol 1e-12,
+atol 1e-14 so that the noise floor lies well below the steps used; a step of 1e-3 of the
+clearance (40 nm) can already straddle a grazing ball, which is why the largest step is not
+trusted blindly.
+"""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxbearing as jb
+from jaxbearing import metrics
+
+TIGHT = dict(rtol=1e-12, atol=1e-14, max_steps=400_000)
+REL_STEPS = (1e-3, 1e-4, 1e-5, 1e-6)
+CONVERGED = 0.005  # neighbouring differences agree this well at the chosen step
+AGREE = 0.02  # derivatives within 2 % of the converged difference (the issue's bound)
+
+
+def converged_difference(f, model, name):
+    """Central difference of ``f(model)`` w.r.t. parameter ``name`` at the converged step."""
+    x = float(jb.paths.get(model, name))
+    fd = []
+    for rel in REL_STEPS:
+        h = rel * abs(x)
+        plus = float(f(jb.paths.replace(model, {name: x + h})))
+        minus = float(f(jb.paths.replace(model, {name: x - h})))
+        fd.append((plus - minus) / (2 * h))
+    gaps = [abs(a - b) / max(abs(a), abs(b)) for a, b in zip(fd[:-1], fd[1:])]
+    best = int(np.argmin(gaps))
+    assert gaps[best] < CONVERGED, f"{name}: differences did not converge: {fd}"
+    return 0.5 * (fd[best] + fd[best + 1])
+
+
+class Case:
+    def __init__(self, ball_force, impact):
+        self.model = jb.cases.xu2014(impact=impact, ball_force=ball_force)
+        self.t1 = 0.1 if impact else 0.02
+        self.ts = jnp.linspace(0.0, self.t1, 201)
+        t_min = 0.04 if impact else 0.0  # with impact: after the start-up, through the impacts
+        self.metric = lambda sol: metrics.rms_bearing_force(sol, t_min=t_min)
+        self.names = ["bearing.clearance", "bearing.stiffness", "bearing.damping"]
+        if impact:
+            self.names.append("impact.restitution")
+        self.value = jb.jit(lambda m: self.metric(jb.simulate(m, self.t1, self.ts, **TIGHT)))
+        self.reference = {n: converged_difference(self.value, self.model, n) for n in self.names}
+
+
+_CASES = {}
+
+
+def case(ball_force, impact):
+    if (ball_force, impact) not in _CASES:
+        _CASES[ball_force, impact] = Case(ball_force, impact)
+    return _CASES[ball_force, impact]
+
+
+def check_paths(c):
+    """sensitivity forward (jax.jacfwd with ForwardMode) and reverse (jax.grad)."""
+    for mode in ("forward", "reverse"):
+        _, grad = jb.sensitivity(c.model, c.metric, c.names, c.t1, c.ts, mode=mode, **TIGHT)
+        for name in c.names:
+            assert float(grad[name]) == pytest.approx(c.reference[name], rel=AGREE), (mode, name)
+
+
+def check_user_transforms_and_vmap(c):
+    """A user's own jax.grad and jax.jacfwd around simulate, and jax.vmap over design points."""
+    name = "bearing.clearance"
+    x0 = float(jb.paths.get(c.model, name))
+
+    def f(x, adjoint=None):
+        sol = jb.simulate(jb.paths.replace(c.model, {name: x}), c.t1, c.ts, adjoint=adjoint, **TIGHT)
+        return c.metric(sol)
+
+    assert float(jb.jit(jax.grad(f))(x0)) == pytest.approx(c.reference[name], rel=AGREE)
+    forward = jax.jacfwd(lambda x: f(x, diffrax.ForwardMode()))
+    other = 1.1 * x0
+    batched = jb.jit(jax.vmap(forward))(jnp.array([x0, other]))
+    assert float(batched[0]) == pytest.approx(c.reference[name], rel=AGREE)
+    other_model = jb.paths.replace(c.model, {name: other})
+    assert float(batched[1]) == pytest.approx(converged_difference(c.value, other_model, name), rel=AGREE)
+
+
+@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
+def test_derivatives_without_impact(ball_force):
+    c = case(ball_force, impact=False)
+    check_paths(c)
+    check_user_transforms_and_vmap(c)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
+def test_derivatives_with_impact(ball_force):
+    c = case(ball_force, impact=True)
+    check_paths(c)
+    check_user_transforms_and_vmap(c)
