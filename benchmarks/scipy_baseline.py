@@ -3,7 +3,7 @@
     python benchmarks/scipy_baseline.py [--t1 0.2] [--methods LSODA,BDF,Radau,RK45,DOP853]
                                         [--rtols 1e-8,1e-7] [--max-wall 120] [--json out.json]
 
-The equations are those of `jaxbearing.cases.xu2014` (SPEC §1–4), written again here without
+The equations are those of `jaxbearing.cases.xu2014` (docs/model.md), written again here without
 JAX: Eq. 36 with Baumgarte stabilisation, solved as one dense augmented system per right-hand
 side call; the per-ball force of Eq. 9 with the kinematic cage; the Lankarani–Nikravesh contact
 (Eq. 23, frictionless as in the paper) switched on at t >= 0.05 s; the target's spring-damper.

@@ -116,7 +116,7 @@ def run_xu2014(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
 
     summary = {
-        "case": "xu2014 impact slider-crank (Xu 2014, Sect. 3; SPEC 4)",
+        "case": "xu2014 impact slider-crank (Xu 2014, Sect. 3; docs/model.md, 'The paper's case')",
         "t1_s": args.t1,
         "samples": samples,
         "output_dt_s": dt,

@@ -733,8 +733,8 @@ def lp_life(
     Args:
         sol, model: a `simulate` result and its model.
         groove_inner, groove_outer: raceway conformities f = r/D (`BallBearing` does not store
-            them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.skf98205` uses
-            0.5219, 0.5194).
+            them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
+            0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
         t_min, t_max: window [s].
         rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
         points_per_ball: ring points per ball spacing for ``rotating=None``.

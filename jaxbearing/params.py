@@ -37,7 +37,8 @@ class BallBearing(eqx.Module):
         n_balls: N_b, number of rolling elements (static).
         exponent: n of Eq. 9: 3/2 for balls, 10/9 for rollers (static).
         cage: ``"kinematic"`` (cage angle from the ring angles, the default) or ``"constant"``
-            (cage speed of Eq. 15 at the initial ring speeds), see SPEC §2 (static).
+            (cage speed of Eq. 15 at the initial ring speeds), see docs/model.md, 'Cage angle'
+            (static).
         ball_force: ``"paper"`` (Eq. 9, damping on at first touch) or ``"smooth"`` (damping
             ramped in over ``damping_ramp``, for gradients) (static).
     """

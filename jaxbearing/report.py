@@ -1,4 +1,5 @@
-"""Reports on simulations of the paper's impact slider–crank (Xu 2014, Sect. 3; SPEC §4).
+"""Reports on simulations of the paper's impact slider–crank (Xu 2014, Sect. 3; docs/model.md,
+'The paper's case').
 
 Two layers, both NumPy (call them on concrete results, not under ``jit``):
 
@@ -40,7 +41,9 @@ from .cases.xu2014 import TABLE5, TABLE5_TIMES
 
 SLIDER = 2  # body index of the slider in `cases.xu2014` (crank, rod, slider, target)
 TARGET = 3  # body index of the target
-PEAK_FROM = 0.04  # [s] peaks are taken after the bearing's start-up transient (SPEC §4)
+# [s] peaks are taken after the bearing's start-up transient (docs/model.md, 'Start-up transient
+# and metric window')
+PEAK_FROM = 0.04
 FIGURE_WINDOW = (0.04, 0.14)  # [s] one crank revolution, the window of the paper's figures
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
 
@@ -185,7 +188,7 @@ def table5(data, times=TABLE5_TIMES) -> np.ndarray:
     """Ball loads [N] at the times of the paper's Table 5, shape (N_b, len(times)), ball 1 first.
 
     Linear interpolation between samples (exact where a time is a sample); NaN for times outside
-    the sampled span. Compare with `cases.xu2014.TABLE5` on a run *without* impact.
+    the sampled span. Compare with `cases.TABLE5` on a run *without* impact.
     """
     data = _as_series(data)
     t = np.asarray(data["t"], dtype=float)

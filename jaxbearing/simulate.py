@@ -210,7 +210,7 @@ def simulate(
         adjoint: how diffrax differentiates each segment: the default
             `diffrax.RecursiveCheckpointAdjoint()` serves `jax.grad` (reverse mode);
             `diffrax.ForwardMode()` serves `jax.jacfwd`, the cheaper choice for a few
-            parameters (see `jaxbearing.gradients`).
+            parameters (see `jaxbearing.sensitivity`).
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):

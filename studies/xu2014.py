@@ -1,4 +1,5 @@
-"""Reproduce Xu (2014)'s impact slider–crank: Figs. 12–15 and Table 5 (SPEC §4).
+"""Reproduce Xu (2014)'s impact slider–crank: Figs. 12–15 and Table 5 (docs/model.md,
+'The paper's case').
 
 A thin script over the public API: it runs the ``jaxbearing xu2014`` command
 (`jaxbearing.cli`), which simulates 0–0.2 s with and without impact, prints a summary and

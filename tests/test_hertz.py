@@ -23,7 +23,9 @@ D = 8.7e-3
 DM = 37.9e-3
 E_STEEL = 207e9
 NU_STEEL = 0.3
-F_I, F_O = 0.5219, 0.5194  # groove ratios fitted in SPEC §2 (the paper omits them)
+# groove ratios fitted to the paper's K_i, K_o (the paper omits them; docs/model.md, 'Groove
+# curvature ratios')
+F_I, F_O = 0.5219, 0.5194
 
 
 # ---------------------------------------------------------------------------- elliptic integrals
@@ -177,7 +179,8 @@ def test_skf98205_reproduces_paper_stiffness():
 
 
 def test_swapped_groove_ratios_give_same_ball_stiffness():
-    # SPEC §2: labels swapped (0.5162/0.5267) fit too: K_i, K_o exchange, K_b unchanged.
+    # docs/model.md, 'Groove curvature ratios': labels swapped (0.5162/0.5267) fit too: K_i, K_o
+    # exchange, K_b unchanged.
     k_i, k_o, k_b = hertz.bearing_stiffness(D, DM, 0.5162, 0.5267, E_STEEL, NU_STEEL)
     assert float(k_i) == pytest.approx(2.86e10, rel=0.01)
     assert float(k_o) == pytest.approx(2.57e10, rel=0.01)

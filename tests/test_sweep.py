@@ -46,7 +46,7 @@ TS = np.linspace(0.0, T1, 11)
 MAX_STEPS = 1500
 TIME_CELLS = 1  # no alignment cells: with simulate's 64, these 0.01 s chunks take 1.3 s, not 0.18 s
 CHUNK = 2  # points per device per chunk
-GROOVES = {"groove_inner": 0.5219, "groove_outer": 0.5194}  # those of cases.skf98205
+GROOVES = {"groove_inner": 0.5219, "groove_outer": 0.5194}  # those of cases.xu2014
 METRICS = {  # window from t = 0: the standard one starts at 0.04 s
     "peak_ball_load": functools.partial(M.peak_ball_load, t_min=0.0),
     "rms_bearing_force": functools.partial(M.rms_bearing_force, t_min=0.0),

@@ -1,5 +1,5 @@
-"""The paper's case (Xu 2014, Sect. 3; SPEC §4): Table 5, the impact sequence, and the stiff
-solver Kvaerno5 as a first-class alternative to the default."""
+"""The paper's case (Xu 2014, Sect. 3; docs/model.md, 'The paper's case'): Table 5, the impact
+sequence, and the stiff solver Kvaerno5 as a first-class alternative to the default."""
 
 import jax
 import jax.numpy as jnp
@@ -30,14 +30,15 @@ def test_model_parameters_are_papers():
     assert float(model.bearing.clearance) == 4e-5
     assert float(model.bearing.damping) == 300.0
     assert float(model.impact.restitution) == 0.9
-    # Eq. 15 at the initial ring speeds: 28.5 rad/s (SPEC §2)
+    # Eq. 15 at the initial ring speeds: 28.5 rad/s (docs/model.md, 'Initial conditions')
     speed = jb.laws.cage_speed(model.qd0[5], model.qd0[2], model.bearing)
     assert float(speed) == pytest.approx(28.5, abs=0.05)
 
 
 def test_table5_without_impact(without_impact):
-    """Paper Table 5 (kinematic cage): SPEC says independent models reach an RMS of about 7 N
-    with the same loaded balls in all but one entry; the issue allows 15 N and 2 entries."""
+    """Paper Table 5 (kinematic cage): independent models reach an RMS of about 7 N with the same
+    loaded balls in all but one entry (docs/model.md, 'What the paper reports'); the issue allows
+    15 N and 2 entries."""
     idx = np.searchsorted(np.asarray(TS), TABLE5_TIMES)
     assert np.allclose(np.asarray(TS)[idx], TABLE5_TIMES)
     sim = np.asarray(without_impact.ball_loads)[idx].T  # (ball, time)
@@ -64,7 +65,8 @@ def test_impact_sequence(with_impact):
     c = sol.contacts
     times = np.asarray(c.time)[np.asarray(c.valid)]
     speeds = np.asarray(c.approach_speed)[np.asarray(c.valid)]
-    # SPEC §4: first contact near crank angle 329 deg, t ~ 0.091 s; repeated contacts.
+    # first contact near crank angle 329 deg, t ~ 0.091 s; repeated contacts (docs/model.md,
+    # 'Contact circles and switch-on time')
     assert 0.090 < times[0] < 0.093
     assert np.sum(times < 0.1) >= 3
     assert np.all(speeds > 0.0)

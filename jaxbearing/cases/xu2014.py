@@ -1,4 +1,5 @@
-"""The paper's impact slider–crank with an SKF 98205 bearing (Xu 2014, Sect. 3; SPEC §4).
+"""The paper's impact slider–crank with an SKF 98205 bearing (Xu 2014, Sect. 3;
+docs/model.md, 'The paper's case').
 
 Bodies, in order: 0 crank, 1 connecting rod, 2 slider, 3 target (the paper's bodies 2–5).
 The crank turns about the origin at 600 rpm; the bearing joins the crank's far end (outer race)
@@ -51,7 +52,7 @@ def skf98205(
 ) -> BallBearing:
     """SKF 98205 (paper Table 2): d_m 37.9 mm, D 8.7 mm, 8 balls, E 207 GPa, nu 0.3, and the
     groove curvature ratios f_i = 0.5219, f_o = 0.5194 that reproduce the paper's K_i, K_o
-    (SPEC §2)."""
+    (docs/model.md, 'Groove curvature ratios')."""
     return BallBearing.from_geometry(
         pitch_diameter=37.9e-3,
         ball_diameter=8.7e-3,

@@ -111,7 +111,8 @@ class BearingJoint(eqx.Module):
 
 class CircleContact(eqx.Module):
     """Impact between two circular surfaces: radius R_j centred at body-frame point c_j of body j
-    and radius R_k at c_k of body k (SPEC §3–4; paper Eqs. 16–27, 31–34).
+    and radius R_k at c_k of body k (paper Eqs. 16–27, 31–34; docs/model.md, 'Impact contact'
+    and 'Contact circles and switch-on time').
 
     Penetration delta = R_j + R_k - |c_k - c_j|, normal n from c_j to c_k, tangent t = n rotated
     +90 deg. The normal force pushes k along +n and j along -n, applied at the surface points
