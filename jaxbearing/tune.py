@@ -13,9 +13,13 @@ Which differentiation mode:
   of a forward run whatever the number of parameters (about 6x here); use it for many parameters.
   `tune` uses it, so a loss can call `simulate` with its defaults.
 
-Use the smooth ball force (``ball_force="smooth"``) and smooth metrics (`metrics.SMOOTH`) for
-gradients: the paper's force switches its damping on at first touch, which makes derivatives over
-the start-up rattling unreliable.
+Both ball forces give derivatives of the computed solution that are exact to the solver's
+tolerance: the paper force's switches are located as events, whose implicit time derivatives
+supply the jump terms (docs/model.md, 'Paper force: switched damping'). The paper force's metrics
+are rougher functions of the parameters, though: a ball that barely grazes the race switches its
+damping on with a jump, so a metric can bend sharply within a few tens of nanometres of clearance.
+For optimisation prefer the smooth force and smooth metrics (`metrics.SMOOTH`); the exact peaks
+jump when another sample takes the maximum.
 """
 
 from __future__ import annotations
