@@ -28,17 +28,20 @@ import equinox.internal as eqxi
 import diffrax
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
 from optimistix._solver.bisection import _BisectionState  # state of the subclass below
 
 from . import _checks
 from .compile import jit
+from .laws import bearing as bearing_law
 from .laws.bearing import BALL_RELEASE
 from .multibody.mechanism import Mechanism
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
+OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 
 
@@ -184,6 +187,7 @@ def simulate(
     max_steps: int = 200_000,
     max_segments: int | None = None,
     time_cells: int = 64,
+    output_block: int | None = None,
     throw: bool = True,
     progress: str | None = None,
     adjoint: diffrax.AbstractAdjoint | None = None,
@@ -207,6 +211,8 @@ def simulate(
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver (measured: about 1.3 steps).
+        output_block: output times one segment may write; default `default_output_block`, the most
+            that fall in one time cell, so that each output time costs one write.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label to print progress under, or None.
@@ -229,6 +235,11 @@ def simulate(
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
         raise ValueError(f"time_cells must be at least 1; got {time_cells}.")
+    if output_block is None:
+        output_block = default_output_block(ts, t0, t1, time_cells)
+    if not 1 <= output_block:
+        raise ValueError(f"output_block must be at least 1; got {output_block}.")
+    output_block = min(int(output_block), ts.shape[0])
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
@@ -242,6 +253,7 @@ def simulate(
         max_steps,
         max_segments,
         time_cells,
+        output_block,
         progress,
         diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
     )
@@ -261,26 +273,38 @@ def default_max_segments(model: Mechanism, t0, t1) -> int:
     return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
 
 
-def _ahead(ts, t_start, t_end, done):
-    """The output times in [t_start, t_end] first, then NaN for the others.
+def default_output_block(ts, t0, t1, time_cells: int) -> int:
+    """The most output times in one time cell, ends included (+2 for rounding of the cell
+    ends): a segment never spans more than one cell, so it never writes more. All of ``ts``
+    when ``ts`` or the span are traced."""
+    if not (_concrete(ts) and _concrete(t0) and _concrete(t1)):
+        return ts.shape[0]
+    times = np.asarray(ts)
+    edges = np.linspace(float(t0), float(t1), time_cells + 1)
+    first = np.searchsorted(times, edges[:-1], side="left")
+    last = np.searchsorted(times, edges[1:], side="right")
+    return int(min(times.shape[0], np.max(last - first, initial=0) + 2))
 
-    A segment thus saves only what lies in its span instead of re-saving every earlier time at
-    its start. NaN passes diffrax's range check and never satisfies its save condition
-    ``t_save <= t_next``; finished members (``done``) get only NaN, so their zero-length solves
-    save nothing. (Under vmap diffrax re-runs the step body of members whose loop has ended and
-    discards the result; a finished member with every time at t1 re-saved all T times in each of
-    those steps, which made batches 10x slower than serial runs.)
-    """
+
+def _block(ts, t_start, t_stop, done, size):
+    """The ``size`` output times from the first one >= t_start: their index ``k``, and the times
+    inside [t_start, t_stop] with NaN for the others. NaN passes diffrax's range check and never
+    satisfies its save condition ``t_save <= t_next``; finished members (``done``) get only NaN,
+    so their zero-length solves save nothing. (Under vmap diffrax re-runs the step body of
+    members whose loop has ended and discards the result.)"""
     k = jnp.searchsorted(ts, t_start, side="left")
-    rolled = jnp.roll(ts, -k)
-    ahead = (jnp.arange(ts.shape[0]) < ts.shape[0] - k) & (rolled <= t_end) & ~done
-    return jnp.where(ahead, jnp.clip(rolled, t_start, t_end), jnp.nan)
+    index = k + jnp.arange(size)
+    times = ts[jnp.minimum(index, ts.shape[0] - 1)]
+    inside = (index < ts.shape[0]) & (times <= t_stop) & ~done
+    return k, jnp.where(inside, jnp.clip(times, t_start, t_stop), jnp.nan)
 
 
-def _behind(ys, ts, t_start):
-    """Undo `_ahead` on the saved values."""
-    k = jnp.searchsorted(ts, t_start, side="left")
-    return jnp.roll(ys, k, axis=0)
+def _write(buffer, k, rows, mask):
+    """``buffer[k : k + len(rows)] = rows`` where ``mask``; ``buffer`` has len(rows) rows of
+    padding at its end, so the slice always fits."""
+    old = jax.lax.dynamic_slice_in_dim(buffer, k, rows.shape[0])
+    mask = mask.reshape(mask.shape + (1,) * (rows.ndim - 1))
+    return jax.lax.dynamic_update_slice_in_dim(buffer, jnp.where(mask, rows, old), k, 0)
 
 
 class _EventBisection(optx.Bisection):
@@ -327,9 +351,9 @@ class _Carry(NamedTuple):
     approach: jax.Array  # (n_contacts,) approach speed of each contact's current contact [m/s]
     in_contact: jax.Array  # (n_contacts,) bool
     engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
-    out_y: jax.Array  # (T, 2n) states at the output times, NaN where not yet reached
-    out_approach: jax.Array  # (T, n_contacts) approach speeds in force at the output times
-    out_engaged: jax.Array  # (T, n_switched_balls) engaged balls at the output times
+    out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
+    out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
+    out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
     done: jax.Array  # reached t1 or failed
     result: RESULTS
     steps: jax.Array
@@ -337,7 +361,9 @@ class _Carry(NamedTuple):
 
 
 @jit
-def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, progress, adjoint):
+def _simulate(
+    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, block, progress, adjoint
+):
     rules = model.violations()
     rules.append(
         (t1 <= t0, "t1 must be greater than t0 [s]", t1)
@@ -386,6 +412,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
 
     def segment(c: _Carry, slot):
         t_stop = cell_ends[c.cell]
+        k, save_ts = _block(ts, c.t, t_stop, c.done, block)
         meter = (
             diffrax.NoProgressMeter()
             if progress is None
@@ -400,7 +427,7 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
             c.y,
             args=(c.approach, c.in_contact, c.engaged),
             saveat=diffrax.SaveAt(
-                subs=[diffrax.SubSaveAt(ts=_ahead(ts, c.t, t_stop, c.done)), diffrax.SubSaveAt(t1=True)]
+                subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)]
             ),
             stepsize_controller=controller,
             event=event,
@@ -411,14 +438,13 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
         )
         (_, t_end), (ys, y_end) = sol.ts, sol.ys
         t_end, y_end = t_end[0], y_end[0]
-        ys = _behind(ys, ts, c.t)
         ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
         hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
-        # outputs of this segment: output times in [t_start, t_end]
-        mine = ((~c.done) & (ts >= c.t) & (ts <= t_end))[:, None]
-        out_y = jnp.where(mine, ys, c.out_y)
-        out_approach = jnp.where(mine, c.approach[None, :], c.out_approach)
-        out_engaged = jnp.where(mine, c.engaged[None, :], c.out_engaged)
+        # outputs of this segment: its block's times in [t_start, t_end], each written once
+        mine = save_ts <= t_end  # False for NaN
+        out_y = _write(c.out_y, k, ys, mine)
+        out_approach = _write(c.out_approach, k, jnp.broadcast_to(c.approach, (block, n_contacts)), mine)
+        out_engaged = _write(c.out_engaged, k, jnp.broadcast_to(c.engaged, (block, n_balls)), mine)
         # switch what the event found: the located one and any other already across
         approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
         record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
@@ -476,9 +502,9 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
         approach=jnp.zeros(n_contacts),
         in_contact=jnp.zeros(n_contacts, bool),
         engaged=model.ball_deflections(t0, model.q0) > 0.0,
-        out_y=jnp.full((T, 2 * n), jnp.nan),
-        out_approach=jnp.zeros((T, n_contacts)),
-        out_engaged=jnp.zeros((T, n_balls), bool),
+        out_y=jnp.full((T + block, 2 * n), jnp.nan),
+        out_approach=jnp.zeros((T + block, n_contacts)),
+        out_engaged=jnp.zeros((T + block, n_balls), bool),
         done=jnp.asarray(False),
         result=RESULTS.successful,
         steps=jnp.asarray(0),
@@ -491,9 +517,9 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, max_segments, ti
     return _outputs(
         model,
         ts,
-        final.out_y,
-        final.out_approach,
-        final.out_engaged,
+        final.out_y[:T],
+        final.out_approach[:T],
+        final.out_engaged[:T],
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         result,
         t_final,
@@ -518,14 +544,14 @@ def _outputs(model, ts, ys, approach, engaged, contacts, result, t_final, steps,
             joint = model.bearings[0]
             first = model.engaged_by_bearing(e_)[0]
             loads, cage = joint.ball_loads(t, q_, qd_, model.q0, model.qd0, first)
-            force = joint.force(t, q_, qd_, model.q0, model.qd0, first)
-            out.update(ball_loads=loads, cage=cage, bearing_force=force)
+            out.update(ball_loads=loads, cage=cage, bearing_force=bearing_law.resultant(loads, cage))
         if model.contacts:
             out["contact_force"] = model.contacts[0].forces(t, q_, qd_, a_[0])[0]
             out["penetration"] = model.contacts[0].gap(q_, qd_)[0]
         return out
 
-    o = jax.vmap(at)(ts, safe_q, safe_qd, approach, engaged)
+    # in batches: a vmap over all T output times streams every intermediate through memory
+    o = jax.lax.map(lambda x: at(*x), (ts, safe_q, safe_qd, approach, engaged), batch_size=OUTPUT_BATCH)
     nan_where_invalid = lambda x: jnp.where(valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
     o = jax.tree_util.tree_map(nan_where_invalid, o)
     zeros = jnp.zeros_like(ts)

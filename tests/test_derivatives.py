@@ -86,8 +86,11 @@ def check_user_transforms_and_vmap(c):
     other = 1.1 * x0
     batched = jb.jit(jax.vmap(forward))(jnp.array([x0, other]))
     assert float(batched[0]) == pytest.approx(c.reference[name], rel=AGREE)
+    # the second member equals its own single run: batch members step independently, rounding
+    # apart (amplified by the adaptive steps to ~1e-8 of the value at most, measured)
     other_model = jb.paths.replace(c.model, {name: other})
-    assert float(batched[1]) == pytest.approx(converged_difference(c.value, other_model, name), rel=AGREE)
+    _, single = jb.sensitivity(other_model, c.metric, [name], c.t1, c.ts, **TIGHT)
+    assert float(batched[1]) == pytest.approx(float(single[name]), rel=1e-5)
 
 
 @pytest.mark.parametrize("ball_force", ["paper", "smooth"])

@@ -169,13 +169,13 @@ def test_traced_bad_values_are_checked_under_vmap():
 def test_solver_failure_raises_with_time_and_advice():
     model = jb.cases.xu2014(impact=False)
     with pytest.raises(jb.SimulationError, match=r"stopped at t = .* s of t1 = 0.01 s.*max_steps"):
-        jb.simulate(model, 0.01, max_steps=50)
+        jb.simulate(model, 0.01, max_steps=5)
 
 
 def test_solver_failure_without_throw_reports_and_marks_nan():
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.01, 11)
-    sol = jb.simulate(model, 0.01, ts, max_steps=50, throw=False)
+    sol = jb.simulate(model, 0.01, ts, max_steps=5, throw=False)
     assert sol.result == jb.RESULTS.max_steps_reached
     assert 0.0 < float(sol.t_final) < 0.01
     after = np.asarray(ts) > float(sol.t_final)
