@@ -45,7 +45,7 @@ import numpy as np
 from . import _checks
 from .compile import jit
 from .laws import bearing as bearing_law
-from .metrics import WithModel
+from .metrics import WithModel, check_window
 from .multibody.bodies import GROUND
 from .multibody.mechanism import Mechanism
 from .simulate import Solution
@@ -171,6 +171,7 @@ def _validate_history(
                 f"{label} must have shape ({want}) (one row per output time); got {arr.shape}."
             )
     if not _concrete(ts, rel, series, t_min, t_max):
+        check_window(ts, _trapezoid(ts, *_bounds(t_min, t_max)), t_min, t_max, need="two")
         return
     t, r = np.asarray(ts), np.asarray(rel)
     rules = [
@@ -187,11 +188,7 @@ def _validate_history(
     lo, hi = (float(b) for b in _bounds(t_min, t_max))
     inside = (t >= lo) & (t <= hi)
     pairs = inside[:-1] & inside[1:]
-    if not np.any(pairs):
-        raise ValueError(
-            f"the window [t_min, t_max] = [{lo:.6g}, {hi:.6g}] s must contain at least two "
-            "output times."
-        )
+    check_window(ts, _trapezoid(ts, lo, hi), t_min, t_max, need="two")
     if rotation and not np.any(pairs & ((r[:-1] != 0.0) | (r[1:] != 0.0))):
         raise ValueError(
             "the rings must turn relative to each other inside the window (relative_speed is 0 "
@@ -200,15 +197,16 @@ def _validate_history(
 
 
 def _safe_power(x, p):
-    """x^p for x >= 0 with a finite gradient also at x = 0 (p > 0); inf where x = inf."""
+    """x^p for x >= 0 with a finite gradient also at x = 0 (p > 0); inf where x = inf, NaN
+    where x is NaN (the mean over an empty window)."""
     safe = jnp.where(x > 0.0, x, 1.0)
-    return jnp.where(x > 0.0, safe**p, 0.0)
+    return jnp.where(x > 0.0, safe**p, jnp.where(jnp.isnan(x), jnp.nan, 0.0))
 
 
 def _safe_ratio(num, den):
-    """num / den, +inf where den = 0, finite gradients."""
+    """num / den, +inf where den = 0, NaN where den is NaN, finite gradients."""
     safe = jnp.where(den > 0.0, den, 1.0)
-    return jnp.where(den > 0.0, num / safe, jnp.inf)
+    return jnp.where(den > 0.0, num / safe, jnp.where(jnp.isnan(den), jnp.nan, jnp.inf))
 
 
 # --------------------------------------------------------------------------------------------
@@ -226,7 +224,7 @@ def load_rating_factor(ratio):
     Returns:
         f_c [N / mm^1.8 in C_r = b_m f_c (i cos alpha)^0.7 Z^(2/3) D_w^1.8].
     """
-    r = _checks.as_float(ratio)
+    r = _checks.as_float(ratio, "ratio", "-")
     _checks.raise_if_concrete(
         [
             (
@@ -279,7 +277,14 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
     value; the paper's SKF 98205 (8 balls of 8.7 mm on 37.9 mm) 15.14 kN.
     """
     z, d, dm, alpha, bm = (
-        _checks.as_float(v) for v in (n_balls, ball_diameter, pitch_diameter, contact_angle, b_m)
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (n_balls, "n_balls", "-"),
+            (ball_diameter, "ball_diameter", "m"),
+            (pitch_diameter, "pitch_diameter", "m"),
+            (contact_angle, "contact_angle", "rad"),
+            (b_m, "b_m", "-"),
+        )
     )
     _checks.raise_if_concrete(_geometry_rules(z, d, dm, alpha) + [_checks.positive("b_m", bm, "-")])
     load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
