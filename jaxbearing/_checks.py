@@ -32,10 +32,20 @@ def require_x64() -> None:
         )
 
 
-def as_float(value) -> jax.Array:
-    """A float64 array leaf (parameters stay visible to `jax.vmap` and `jax.grad`)."""
+def as_float(value, name: str, unit: str) -> jax.Array:
+    """A float64 array leaf (parameters stay visible to `jax.vmap` and `jax.grad`) of the
+    parameter ``name`` [unit]; anything but a number or an array of numbers (a string such as
+    "40 um", a boolean, None) raises a `ValueError` naming the parameter and its unit."""
     require_x64()
-    return jnp.asarray(value, dtype=jnp.float64)
+    if not isinstance(value, (str, bytes, bool, np.bool_)):
+        try:
+            return jnp.asarray(value, dtype=jnp.float64)
+        except (TypeError, ValueError):
+            pass
+    raise ValueError(
+        f"{name} must be a number in SI units [{unit}] (a float or an array of floats); "
+        f"got {value!r}."
+    )
 
 
 def _is_concrete(x) -> bool:

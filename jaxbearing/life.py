@@ -45,7 +45,7 @@ import numpy as np
 from . import _checks
 from .compile import jit
 from .laws import bearing as bearing_law
-from .metrics import WithModel
+from .metrics import WithModel, check_window
 from .multibody.bodies import GROUND
 from .multibody.mechanism import Mechanism
 from .simulate import Solution
@@ -137,14 +137,23 @@ def _bounds(t_min, t_max):
     """The window as two floats (None: unbounded), so jitted kernels never retrace on it."""
     lo = -jnp.inf if t_min is None else t_min
     hi = jnp.inf if t_max is None else t_max
-    return _checks.as_float(lo), _checks.as_float(hi)
+    return _checks.as_float(lo, "t_min", "s"), _checks.as_float(hi, "t_max", "s")
+
+
+def _times(ts):
+    return _checks.as_float(ts, "ts", "s")
+
+
+def _relative_speed(relative_speed):
+    return _checks.as_float(relative_speed, "relative_speed", "rad/s")
 
 
 def _validate_history(
     ts, rel, t_min, t_max, series=None, name="", trailing=(), nonneg=False, rotation=True
 ):
     """Shapes always; values (NumPy, cheap) when concrete: ts finite and increasing, series and
-    relative_speed finite, loads >= 0, a window of at least two samples, relative rotation."""
+    relative_speed finite, loads >= 0, a window of at least two samples (traced: a run-time
+    warning, and the results are NaN), relative rotation."""
     if ts.ndim != 1 or ts.shape[0] < 2:
         raise ValueError(
             f"ts must be a 1-D array of at least 2 output times; got shape {ts.shape}."
@@ -162,6 +171,7 @@ def _validate_history(
                 f"{label} must have shape ({want}) (one row per output time); got {arr.shape}."
             )
     if not _concrete(ts, rel, series, t_min, t_max):
+        check_window(ts, _trapezoid(ts, *_bounds(t_min, t_max)), t_min, t_max, need="two")
         return
     t, r = np.asarray(ts), np.asarray(rel)
     rules = [
@@ -178,11 +188,7 @@ def _validate_history(
     lo, hi = (float(b) for b in _bounds(t_min, t_max))
     inside = (t >= lo) & (t <= hi)
     pairs = inside[:-1] & inside[1:]
-    if not np.any(pairs):
-        raise ValueError(
-            f"the window [t_min, t_max] = [{lo:.6g}, {hi:.6g}] s must contain at least two "
-            "output times."
-        )
+    check_window(ts, _trapezoid(ts, lo, hi), t_min, t_max, need="two")
     if rotation and not np.any(pairs & ((r[:-1] != 0.0) | (r[1:] != 0.0))):
         raise ValueError(
             "the rings must turn relative to each other inside the window (relative_speed is 0 "
@@ -191,15 +197,16 @@ def _validate_history(
 
 
 def _safe_power(x, p):
-    """x^p for x >= 0 with a finite gradient also at x = 0 (p > 0); inf where x = inf."""
+    """x^p for x >= 0 with a finite gradient also at x = 0 (p > 0); inf where x = inf, NaN
+    where x is NaN (the mean over an empty window)."""
     safe = jnp.where(x > 0.0, x, 1.0)
-    return jnp.where(x > 0.0, safe**p, 0.0)
+    return jnp.where(x > 0.0, safe**p, jnp.where(jnp.isnan(x), jnp.nan, 0.0))
 
 
 def _safe_ratio(num, den):
-    """num / den, +inf where den = 0, finite gradients."""
+    """num / den, +inf where den = 0, NaN where den is NaN, finite gradients."""
     safe = jnp.where(den > 0.0, den, 1.0)
-    return jnp.where(den > 0.0, num / safe, jnp.inf)
+    return jnp.where(den > 0.0, num / safe, jnp.where(jnp.isnan(den), jnp.nan, jnp.inf))
 
 
 # --------------------------------------------------------------------------------------------
@@ -217,7 +224,7 @@ def load_rating_factor(ratio):
     Returns:
         f_c [N / mm^1.8 in C_r = b_m f_c (i cos alpha)^0.7 Z^(2/3) D_w^1.8].
     """
-    r = _checks.as_float(ratio)
+    r = _checks.as_float(ratio, "ratio", "-")
     _checks.raise_if_concrete(
         [
             (
@@ -270,7 +277,14 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
     value; the paper's SKF 98205 (8 balls of 8.7 mm on 37.9 mm) 15.14 kN.
     """
     z, d, dm, alpha, bm = (
-        _checks.as_float(v) for v in (n_balls, ball_diameter, pitch_diameter, contact_angle, b_m)
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (n_balls, "n_balls", "-"),
+            (ball_diameter, "ball_diameter", "m"),
+            (pitch_diameter, "pitch_diameter", "m"),
+            (contact_angle, "contact_angle", "rad"),
+            (b_m, "b_m", "-"),
+        )
     )
     _checks.raise_if_concrete(_geometry_rules(z, d, dm, alpha) + [_checks.positive("b_m", bm, "-")])
     load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
@@ -304,7 +318,7 @@ def revolution_weights(ts, relative_speed, t_min=T_MIN, t_max=None):
     Args: ts (T,) [s], increasing; relative_speed (T,) omega_inner - omega_outer [rad/s].
     Returns: (T,) [revolutions].
     """
-    ts, rel = _checks.as_float(ts), _checks.as_float(relative_speed)
+    ts, rel = _times(ts), _relative_speed(relative_speed)
     _validate_history(ts, rel, t_min, t_max, rotation=False)
     return _weights(ts, rel, *_bounds(t_min, t_max))[1]
 
@@ -346,15 +360,17 @@ def equivalent_load(ts, force, relative_speed, t_min=T_MIN, t_max=None, exponent
         t_min, t_max: window [s] (None: unbounded).
         exponent: p (3 for ball bearings, 10/3 for roller bearings).
     """
-    ts, f, rel = (_checks.as_float(v) for v in (ts, force, relative_speed))
+    ts, f, rel = _times(ts), _checks.as_float(force, "force", "N"), _relative_speed(relative_speed)
     _validate_history(ts, rel, t_min, t_max, f, "force", (2,) if f.ndim == 2 else ())
-    return _equivalent_load(ts, f, rel, *_bounds(t_min, t_max), _checks.as_float(exponent))
+    p = _checks.as_float(exponent, "exponent", "-")
+    return _equivalent_load(ts, f, rel, *_bounds(t_min, t_max), p)
 
 
 def rating_life(load_rating, equivalent, exponent=3.0):
     """Basic rating life L10 = (C / P)^p [millions of revolutions] (ISO 281:2007; p = 3 for
     ball bearings). +inf where P = 0. Args: load_rating C [N] (> 0), equivalent P [N] (>= 0)."""
-    c, p = _checks.as_float(load_rating), _checks.as_float(equivalent)
+    c = _checks.as_float(load_rating, "load_rating", "N")
+    p = _checks.as_float(equivalent, "equivalent", "N")
     _checks.raise_if_concrete(
         [_checks.positive("load_rating", c, "N"), _checks.non_negative("equivalent", p, "N")]
     )
@@ -364,7 +380,7 @@ def rating_life(load_rating, equivalent, exponent=3.0):
 def mean_speed_rpm(ts, relative_speed, t_min=T_MIN, t_max=None):
     """Mean relative speed n = <|omega_inner - omega_outer|> 60 / (2 pi) [rpm] over the window
     (time average, trapezoid rule)."""
-    ts, rel = _checks.as_float(ts), _checks.as_float(relative_speed)
+    ts, rel = _times(ts), _relative_speed(relative_speed)
     _validate_history(ts, rel, t_min, t_max, rotation=False)
     return _mean_speed_rpm(ts, rel, *_bounds(t_min, t_max))
 
@@ -377,7 +393,8 @@ def _mean_speed_rpm(ts, rel, lo, hi):
 
 def life_hours(l10, speed_rpm):
     """L10h = 1e6 L10 / (60 n) [h] from L10 [millions of revolutions] and n [rpm] (> 0)."""
-    l10, n = _checks.as_float(l10), _checks.as_float(speed_rpm)
+    l10 = _checks.as_float(l10, "l10", "1e6 rev")
+    n = _checks.as_float(speed_rpm, "speed_rpm", "rpm")
     _checks.raise_if_concrete(
         [_checks.non_negative("l10", l10, "1e6 rev"), _checks.positive("speed_rpm", n, "rpm")]
     )
@@ -448,12 +465,18 @@ def ball_race_load_ratings(
             lives combine to the catalogue rating of `dynamic_load_rating`.
     """
     z, d, dm, fi, fo, alpha, bm, red = (
-        _checks.as_float(v)
-        for v in (
-            n_balls, ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle,
-            b_m, reduction,
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (n_balls, "n_balls", "-"),
+            (ball_diameter, "ball_diameter", "m"),
+            (pitch_diameter, "pitch_diameter", "m"),
+            (groove_inner, "groove_inner", "-"),
+            (groove_outer, "groove_outer", "-"),
+            (contact_angle, "contact_angle", "rad"),
+            (b_m, "b_m", "-"),
+            (reduction, "reduction", "-"),
         )
-    )  # fmt: skip
+    )
     _checks.raise_if_concrete(
         _geometry_rules(z, d, dm, alpha)
         + [
@@ -480,9 +503,12 @@ def ball_equivalent_load(ts, ball_loads, relative_speed, exponent, t_min=T_MIN, 
     Args: ts (T,) [s]; ball_loads (T, Z) [N] (>= 0); relative_speed (T,) [rad/s]; exponent p;
     window t_min, t_max [s]. Returns Q_e [N].
     """
-    ts, q, rel = (_checks.as_float(v) for v in (ts, ball_loads, relative_speed))
+    ts, rel = _times(ts), _relative_speed(relative_speed)
+    q = _checks.as_float(ball_loads, "ball_loads", "N")
     _validate_history(ts, rel, t_min, t_max, q, "ball_loads", (None,), nonneg=True)
-    return _ball_equivalent_load(ts, q, rel, *_bounds(t_min, t_max), _checks.as_float(exponent))
+    return _ball_equivalent_load(
+        ts, q, rel, *_bounds(t_min, t_max), _checks.as_float(exponent, "exponent", "-")
+    )
 
 
 @jax.jit
@@ -519,7 +545,8 @@ def ring_equivalent_load(ts, ring_loads, relative_speed, t_min=T_MIN, t_max=None
     Args: ts (T,) [s]; ring_loads (T, M) [N] (>= 0); relative_speed (T,) [rad/s]; window [s].
     Returns: Q_e [N]; the ring life is (Q_c / Q_e)^3 (`ring_life`).
     """
-    ts, q, rel = (_checks.as_float(v) for v in (ts, ring_loads, relative_speed))
+    ts, rel = _times(ts), _relative_speed(relative_speed)
+    q = _checks.as_float(ring_loads, "ring_loads", "N")
     _validate_history(ts, rel, t_min, t_max, q, "ring_loads", (None,), nonneg=True)
     return _safe_power(_ring_damage(ts, q, rel, *_bounds(t_min, t_max)), 1.0 / 3.0)
 
@@ -532,7 +559,8 @@ def ring_life(load_rating, equivalent):
 def bearing_life(inner_life, outer_life):
     """Bearing L10 from its ring lives, the rings failing independently with Weibull slope
     e = 10/9: L10 = (L_i^(-10/9) + L_o^(-10/9))^(-9/10) [same unit as the inputs]."""
-    li, lo = _checks.as_float(inner_life), _checks.as_float(outer_life)
+    li = _checks.as_float(inner_life, "inner_life", "1e6 rev")
+    lo = _checks.as_float(outer_life, "outer_life", "1e6 rev")
     _checks.raise_if_concrete(
         [
             _checks.positive("inner_life", li, "1e6 rev"),

@@ -15,6 +15,10 @@ differentiation transforms:
 Samples are weighted by the trapezoid rule on ``sol.ts``, so the means do not depend on how the
 output times are spaced. Forces in N, displacements in m.
 
+A window that holds no output time (e.g. a run to t1 < 0.04 s with the default t_min) has no
+value: with concrete ``sol.ts`` and window the metric raises a `ValueError` naming ``t_min`` and
+the span; traced (under jit or vmap, in sweeps) it is NaN and a warning says so at run time.
+
 A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
 is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
 each member's model; `jaxbearing.life.metric` makes one.
@@ -23,10 +27,14 @@ each member's model; `jaxbearing.life.metric` makes one.
 from __future__ import annotations
 
 import dataclasses
+import functools
+import warnings
 from collections.abc import Callable
 
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .simulate import Solution
 
@@ -49,19 +57,54 @@ class WithModel:
 
 
 def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside."""
+    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside; checked
+    by `check_window` (a window without output times)."""
     inside = ts >= t_min
     if t_max is not None:
         inside = inside & (ts <= t_max)
     dt = jnp.diff(ts)
     w = jnp.zeros_like(ts).at[:-1].add(0.5 * dt).at[1:].add(0.5 * dt)
-    return jnp.where(inside, w, 0.0)
+    w = jnp.where(inside, w, 0.0)
+    check_window(ts, w, t_min, t_max)
+    return w
+
+
+def check_window(ts, weights, t_min, t_max, need="one"):
+    """A window whose weights [s] are all zero holds fewer than ``need`` output times: raise a
+    `ValueError` when ``ts`` and the window [t_min, t_max] [s] are concrete; traced, warn at
+    run time (the metrics of that window are NaN)."""
+    if all(not isinstance(x, jax.core.Tracer) for x in (ts, weights, t_min, t_max)):
+        if not np.any(np.asarray(weights) > 0):
+            raise ValueError(_empty_window(t_min, t_max, ts[0], ts[-1], need) + ".")
+        return
+    empty = eqxi.unvmap_any(~jnp.any(weights > 0))
+    lo = -jnp.inf if t_min is None else t_min
+    bounds = (lo, jnp.inf if t_max is None else t_max, ts[0], ts[-1])
+    warn = functools.partial(_warn_empty_window, need=need)
+    jax.lax.cond(
+        eqxi.nonbatchable(empty), lambda: jax.debug.callback(warn, *bounds), lambda: None
+    )
+
+
+def _empty_window(t_min, t_max, first, last, need):
+    t_min = -np.inf if t_min is None else float(t_min)
+    t_max = np.inf if t_max is None else float(t_max)
+    return (
+        f"the window t_min = {t_min:.6g} s to t_max = {t_max:.6g} s must hold at least "
+        f"{need} of the output times, which span [{float(first):.6g}, {float(last):.6g}] s: "
+        f"lower t_min (default {T_MIN} s, after the start-up transient) or simulate longer"
+    )
+
+
+def _warn_empty_window(t_min, t_max, first, last, *, need):
+    warnings.warn(f"{_empty_window(t_min, t_max, first, last, need)}; the metric is NaN.")
 
 
 def _peak(values, weights):
-    """Max of values (T, ...) over samples with positive weight."""
-    masked = jnp.where(weights.reshape((-1,) + (1,) * (values.ndim - 1)) > 0, values, -jnp.inf)
-    return jnp.max(masked)
+    """Max of values (T, ...) over samples with positive weight; NaN if there are none."""
+    weighted = weights.reshape((-1,) + (1,) * (values.ndim - 1)) > 0
+    peak = jnp.max(jnp.where(weighted, values, -jnp.inf))
+    return jnp.where(jnp.any(weighted), peak, jnp.nan)
 
 
 def _power_mean(values, weights, p):

@@ -76,12 +76,16 @@ class BallBearing(eqx.Module):
             raise ValueError(f"ball_force must be 'paper' or 'smooth'; got {ball_force!r}.")
         if exponent <= 1.0:
             raise ValueError(f"exponent must exceed 1 (3/2 balls, 10/9 rollers); got {exponent}.")
-        self.clearance = _checks.as_float(clearance)
-        self.stiffness = _checks.as_float(stiffness)
-        self.damping = _checks.as_float(damping)
-        self.inner_race_diameter = _checks.as_float(inner_race_diameter)
-        self.outer_race_diameter = _checks.as_float(outer_race_diameter)
-        self.damping_ramp = _checks.as_float(damping_ramp)
+        self.clearance = _checks.as_float(clearance, "bearing clearance", "m")
+        self.stiffness = _checks.as_float(stiffness, "bearing stiffness", "N/m^n")
+        self.damping = _checks.as_float(damping, "bearing damping", "N s/m")
+        self.inner_race_diameter = _checks.as_float(
+            inner_race_diameter, "inner raceway diameter", "m"
+        )
+        self.outer_race_diameter = _checks.as_float(
+            outer_race_diameter, "outer raceway diameter", "m"
+        )
+        self.damping_ramp = _checks.as_float(damping_ramp, "damping ramp", "m")
         self.n_balls = int(n_balls)
         self.exponent = float(exponent)
         self.cage = cage
@@ -167,11 +171,11 @@ class Impact(eqx.Module):
     friction_v1: jax.Array
 
     def __init__(self, stiffness, restitution, friction=0.0, friction_v0=1e-4, friction_v1=1e-3):
-        self.stiffness = _checks.as_float(stiffness)
-        self.restitution = _checks.as_float(restitution)
-        self.friction = _checks.as_float(friction)
-        self.friction_v0 = _checks.as_float(friction_v0)
-        self.friction_v1 = _checks.as_float(friction_v1)
+        self.stiffness = _checks.as_float(stiffness, "impact stiffness", "N/m^1.5")
+        self.restitution = _checks.as_float(restitution, "restitution", "-")
+        self.friction = _checks.as_float(friction, "friction coefficient", "-")
+        self.friction_v0 = _checks.as_float(friction_v0, "friction_v0", "m/s")
+        self.friction_v1 = _checks.as_float(friction_v1, "friction_v1", "m/s")
 
     @classmethod
     def from_geometry(

@@ -121,36 +121,77 @@ class Solution(eqx.Module):
 
 
 class _Progress(diffrax.AbstractProgressMeter):
-    """Prints the simulated time every ``every`` of the whole span, across segments."""
+    """Moves one tqdm bar per label over the whole span [t0, t1], across segments.
+
+    Each segment's solve runs [t_start, t_stop]; the meter reports the fraction of [t0, t1]
+    reached to the host (`_advance`) at the start of the run and whenever it crosses a
+    multiple of ``every``, so a run costs at most 1/every + 1 callbacks however many segments
+    it has (measured: 0.25 ms each, 12 ms a run). Under vmap it reports the slowest member.
+    Under `jax.grad` the backward pass re-runs parts of the solve and restarts the bar.
+    """
 
     t_start: jax.Array
+    t_stop: jax.Array
     t0: jax.Array
     t1: jax.Array
     label: str = eqx.field(static=True)
-    every: float = eqx.field(static=True, default=0.05)
+    every: float = eqx.field(static=True, default=0.02)
 
     def _fraction(self, progress):
-        return (self.t_start - self.t0 + progress * (self.t1 - self.t_start)) / (self.t1 - self.t0)
+        inside = self.t_start + progress * (self.t_stop - self.t_start)
+        t = jnp.where(progress >= 1, self.t_stop, inside)  # t_stop exactly at the end
+        return -eqxi.unvmap_max(-(t - self.t0) / (self.t1 - self.t0))
+
+    def _report(self, fraction):
+        jax.debug.callback(_advance, self.label, fraction, eqxi.unvmap_max(self.t1 - self.t0))
 
     def init(self):
-        return self._fraction(jnp.zeros(()))
+        fraction = self._fraction(jnp.zeros(()))
+        start = eqxi.unvmap_all(self.t_start == self.t0)
+        jax.lax.cond(eqxi.nonbatchable(start), lambda: self._report(fraction), lambda: None)
+        return jnp.floor(fraction / self.every)
 
     def step(self, state, progress):
         fraction = self._fraction(progress)
-        pred = eqxi.unvmap_all((fraction - state >= self.every) | (progress == 1))
+        cell = jnp.floor(fraction / self.every)
+        state = eqxi.unvmap_max(state)  # a vmapped loop batches its carry
 
         def report():
-            jax.debug.callback(_print_progress, self.label, fraction, self.t0 + fraction * (self.t1 - self.t0))
-            return fraction
+            self._report(fraction)
+            return cell
 
-        return jax.lax.cond(eqxi.nonbatchable(pred), report, lambda: state)
+        return jax.lax.cond(eqxi.nonbatchable(cell > state), report, lambda: state)
 
     def close(self, state):
         return None
 
 
-def _print_progress(label, fraction, t):
-    print(f"{label}: t = {float(t):.4f} s ({100 * float(fraction):5.1f} %)", flush=True)
+_BARS: dict = {}  # label -> the tqdm bar of the run in progress under that label
+
+
+def _advance(label, fraction, span):
+    """Host side of `_Progress`: fraction 0 opens a bar for ``label`` (closing an older one),
+    a larger fraction moves it forward, 1 closes it. The bar counts simulated seconds of the
+    span [s]."""
+    from tqdm.auto import tqdm
+
+    fraction, span = float(fraction), float(span)
+    bar = _BARS.get(label)
+    if bar is None or fraction == 0.0:
+        if bar is not None:  # a run that did not finish (an error, or a backward pass)
+            bar.leave = False
+            bar.close()
+        bar = _BARS[label] = tqdm(
+            total=span,
+            desc=label,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4f} of {total:.4g} s "
+            "[{elapsed}<{remaining}]",
+            dynamic_ncols=True,
+        )
+    bar.update(max(0.0, min(fraction, 1.0) * span - bar.n))
+    if fraction >= 1.0:
+        bar.close()
+        del _BARS[label]
 
 
 def default_solver() -> diffrax.AbstractSolver:
@@ -215,7 +256,7 @@ def simulate(
             that fall in one time cell, so that each output time costs one write.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
-        progress: a label to print progress under, or None.
+        progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
         adjoint: how diffrax differentiates each segment: the default
             `diffrax.RecursiveCheckpointAdjoint()` serves `jax.grad` (reverse mode);
             `diffrax.ForwardMode()` serves `jax.jacfwd`, the cheaper choice for a few
@@ -416,7 +457,7 @@ def _simulate(
         meter = (
             diffrax.NoProgressMeter()
             if progress is None
-            else _Progress(t_start=c.t, t0=t0, t1=t1, label=progress)
+            else _Progress(t_start=c.t, t_stop=t_stop, t0=t0, t1=t1, label=progress)
         )
         sol = diffrax.diffeqsolve(
             term,

@@ -129,6 +129,25 @@ BAD_INPUTS = [
     (lambda: jb.life.dynamic_load_rating(9, 8e-3, 7e-3), r"pitch_diameter must exceed ball_diameter \[m\]; got 0\.007\."),
     (lambda: jb.life.dynamic_load_rating(20, 8e-3, 39e-3),
      r"ball_diameter must be below pitch_diameter \* sin\(pi / n_balls\), or the balls overlap on the pitch circle \[m\]; got 0\.008\."),
+    # not a number: unit strings, numeric strings, booleans, None (SI numbers only)
+    (lambda: jb.cases.xu2014(clearance="40 um"),
+     r"bearing clearance must be a number in SI units \[m\] \(a float or an array of floats\); got '40 um'\."),
+    (lambda: jb.cases.xu2014(crank_speed="600 rpm"),
+     r"driver speed must be a number in SI units \[rad/s\] \(a float or an array of floats\); got '600 rpm'\."),
+    (lambda: jb.cases.xu2014(contact_on=None),
+     r"contact active_from must be a number in SI units \[s\] \(a float or an array of floats\); got None\."),
+    (lambda: bearing(damping="300"),
+     r"bearing damping must be a number in SI units \[N s/m\] \(a float or an array of floats\); got '300'\."),
+    (lambda: jb.Impact(1e10, True),
+     r"restitution must be a number in SI units \[-\] \(a float or an array of floats\); got True\."),
+    (lambda: Body("1 kg", 0.1),
+     r"body mass must be a number in SI units \[kg\] \(a float or an array of floats\); got '1 kg'\."),
+    (lambda: spring(free_length=[0.1, "m"]),
+     r"spring free length must be a number in SI units \[m\] \(a float or an array of floats\); got \[0\.1, 'm'\]\."),
+    (lambda: from_geometry(ball_diameter="8.7 mm"),
+     r"ball_diameter must be a number in SI units \[m\] \(a float or an array of floats\); got '8\.7 mm'\."),
+    (lambda: jb.life.dynamic_load_rating(9, 8e-3, 39e-3, contact_angle="0 deg"),
+     r"contact_angle must be a number in SI units \[rad\] \(a float or an array of floats\); got '0 deg'\."),
 ]
 
 

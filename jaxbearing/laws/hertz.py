@@ -131,7 +131,7 @@ def elliptic_integrals(m):
     number of steps: K = pi / (2 AGM(1, sqrt(1 - m))), E = K (1 - sum_n 2^(n-1) c_n^2).
     Derivatives in closed form (DLMF 19.4.1), finite at m = 0. Dimensionless.
     """
-    return _elliptic_integrals(_checks.as_float(m))
+    return _elliptic_integrals(_checks.as_float(m, "elliptic parameter m", "-"))
 
 
 def _ellipse(log_kappa):
@@ -221,8 +221,14 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
         (sum_rho_inner [1/m], F_inner [-], sum_rho_outer [1/m], F_outer [-]).
     """
     args = tuple(
-        _checks.as_float(v)
-        for v in (ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle)
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (ball_diameter, "ball_diameter", "m"),
+            (pitch_diameter, "pitch_diameter", "m"),
+            (groove_inner, "groove_inner", "-"),
+            (groove_outer, "groove_outer", "-"),
+            (contact_angle, "contact_angle", "rad"),
+        )
     )
     _checks.raise_if_concrete(_geometry_rules(*args))
     return _curvature_sums(*args)
@@ -311,7 +317,7 @@ def ellipticity(curvature_difference):
     to float64 precision (F = 0 gives kappa = 1, a circle). Derivatives by the implicit
     function theorem. Args: curvature_difference F(rho) in [0, 1). Returns kappa [-].
     """
-    f = _checks.as_float(curvature_difference)
+    f = _checks.as_float(curvature_difference, "curvature_difference", "-")
     _checks.raise_if_concrete(_curvature_difference_rules(f))
     return _ellipticity(f)
 
@@ -328,7 +334,7 @@ def dimensionless_deflection(curvature_difference):
     m = 1 - 1/kappa^2; delta* = 1 for a circular contact (F = 0). Args: curvature_difference
     F(rho) in [0, 1). Dimensionless.
     """
-    f = _checks.as_float(curvature_difference)
+    f = _checks.as_float(curvature_difference, "curvature_difference", "-")
     _checks.raise_if_concrete(_curvature_difference_rules(f))
     return _dimensionless_deflection(f)
 
@@ -354,7 +360,10 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
     poisson_ratio nu in (0, 0.5). Returns K [N/m^1.5] (load Q = K delta^1.5).
     """
     rho, f, e, nu = (
-        _checks.as_float(v) for v in (sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
+        _checks.as_float(sum_rho, "sum_rho", "1/m"),
+        _checks.as_float(curvature_difference, "curvature_difference", "-"),
+        _checks.as_float(youngs_modulus, "youngs_modulus", "Pa"),
+        _checks.as_float(poisson_ratio, "poisson_ratio", "-"),
     )
     _checks.raise_if_concrete(
         [_checks.positive("sum_rho", rho, "1/m")]
@@ -374,7 +383,8 @@ def ball_stiffness(k_inner, k_outer):
 
     K_b = (1 / ((1/K_i)^(2/3) + (1/K_o)^(2/3)))^(3/2). Args and result in N/m^1.5.
     """
-    ki, ko = _checks.as_float(k_inner), _checks.as_float(k_outer)
+    ki = _checks.as_float(k_inner, "k_inner", "N/m^1.5")
+    ko = _checks.as_float(k_outer, "k_outer", "N/m^1.5")
     _checks.raise_if_concrete(
         [_checks.positive("k_inner", ki, "N/m^1.5"), _checks.positive("k_outer", ko, "N/m^1.5")]
     )
@@ -416,15 +426,15 @@ def bearing_stiffness(
     K_i = 2.569e10, K_o = 2.861e10, K_b = 9.576e9 N/m^1.5 (paper: 2.57e10, 2.86e10, 9.57e9).
     """
     d, dm, fi, fo, e, nu, alpha = (
-        _checks.as_float(v)
-        for v in (
-            ball_diameter,
-            pitch_diameter,
-            groove_inner,
-            groove_outer,
-            youngs_modulus,
-            poisson_ratio,
-            contact_angle,
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (ball_diameter, "ball_diameter", "m"),
+            (pitch_diameter, "pitch_diameter", "m"),
+            (groove_inner, "groove_inner", "-"),
+            (groove_outer, "groove_outer", "-"),
+            (youngs_modulus, "youngs_modulus", "Pa"),
+            (poisson_ratio, "poisson_ratio", "-"),
+            (contact_angle, "contact_angle", "rad"),
         )
     )
     _checks.raise_if_concrete(
@@ -453,7 +463,15 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
     youngs_k = youngs_j if youngs_k is None else youngs_k
     poisson_k = poisson_j if poisson_k is None else poisson_k
     rj, rk, ej, nj, ek, nk = (
-        _checks.as_float(v) for v in (radius_j, radius_k, youngs_j, poisson_j, youngs_k, poisson_k)
+        _checks.as_float(v, name, unit)
+        for v, name, unit in (
+            (radius_j, "radius_j", "m"),
+            (radius_k, "radius_k", "m"),
+            (youngs_j, "youngs_j", "Pa"),
+            (poisson_j, "poisson_j", "-"),
+            (youngs_k, "youngs_k", "Pa"),
+            (poisson_k, "poisson_k", "-"),
+        )
     )
     _checks.raise_if_concrete(
         [_checks.positive("radius_j", rj, "m"), _checks.positive("radius_k", rk, "m")]

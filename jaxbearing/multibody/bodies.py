@@ -24,8 +24,8 @@ class Body(eqx.Module):
     inertia: jax.Array
 
     def __init__(self, mass, inertia):
-        self.mass = _checks.as_float(mass)
-        self.inertia = _checks.as_float(inertia)
+        self.mass = _checks.as_float(mass, "body mass", "kg")
+        self.inertia = _checks.as_float(inertia, "body moment of inertia", "kg m^2")
 
     def violations(self):
         return [

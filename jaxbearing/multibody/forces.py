@@ -51,8 +51,8 @@ class BearingJoint(eqx.Module):
         if outer_body == inner_body:
             raise ValueError("BearingJoint needs two different bodies for its races.")
         self.outer_body, self.inner_body = outer_body, inner_body
-        self.outer_point = _checks.as_float(outer_point)
-        self.inner_point = _checks.as_float(inner_point)
+        self.outer_point = _checks.as_float(outer_point, "bearing outer_point", "m")
+        self.inner_point = _checks.as_float(inner_point, "bearing inner_point", "m")
         self.bearing = bearing
 
     def offset(self, q):
@@ -136,12 +136,12 @@ class CircleContact(eqx.Module):
         if body_j == body_k:
             raise ValueError("CircleContact needs two different bodies.")
         self.body_j, self.body_k = body_j, body_k
-        self.centre_j = _checks.as_float(centre_j)
-        self.centre_k = _checks.as_float(centre_k)
-        self.radius_j = _checks.as_float(radius_j)
-        self.radius_k = _checks.as_float(radius_k)
+        self.centre_j = _checks.as_float(centre_j, "contact centre_j", "m")
+        self.centre_k = _checks.as_float(centre_k, "contact centre_k", "m")
+        self.radius_j = _checks.as_float(radius_j, "contact radius_j", "m")
+        self.radius_k = _checks.as_float(radius_k, "contact radius_k", "m")
         self.impact = impact
-        self.active_from = _checks.as_float(active_from)
+        self.active_from = _checks.as_float(active_from, "contact active_from", "s")
 
     def violations(self):
         return [
@@ -213,11 +213,11 @@ class SpringDamper(eqx.Module):
 
     def __init__(self, body_i: int, point_i, body_j: int, point_j, stiffness, damping, free_length):
         self.body_i, self.body_j = body_i, body_j
-        self.point_i = _checks.as_float(point_i)
-        self.point_j = _checks.as_float(point_j)
-        self.stiffness = _checks.as_float(stiffness)
-        self.damping = _checks.as_float(damping)
-        self.free_length = _checks.as_float(free_length)
+        self.point_i = _checks.as_float(point_i, "spring point_i", "m")
+        self.point_j = _checks.as_float(point_j, "spring point_j", "m")
+        self.stiffness = _checks.as_float(stiffness, "spring stiffness", "N/m")
+        self.damping = _checks.as_float(damping, "spring damping", "N s/m")
+        self.free_length = _checks.as_float(free_length, "spring free length", "m")
 
     def violations(self):
         return [
@@ -249,7 +249,7 @@ class Gravity(eqx.Module):
     acceleration: jax.Array
 
     def __init__(self, acceleration=(0.0, -9.80665)):
-        self.acceleration = _checks.as_float(acceleration)
+        self.acceleration = _checks.as_float(acceleration, "gravity acceleration", "m/s^2")
 
     def generalized_force(self, masses, q):
         """[m g_x, m g_y, 0] per body, for body masses (n_bodies,) [kg]."""

@@ -71,10 +71,10 @@ class Mechanism(eqx.Module):
         self.forces = tuple(forces)
         self.contacts = tuple(contacts)
         self.gravity = gravity
-        self.q0 = _checks.as_float(q0)
-        self.qd0 = _checks.as_float(qd0)
-        self.baumgarte_alpha = _checks.as_float(baumgarte_alpha)
-        self.baumgarte_beta = _checks.as_float(baumgarte_beta)
+        self.q0 = _checks.as_float(q0, "initial positions q0", "m, rad")
+        self.qd0 = _checks.as_float(qd0, "initial velocities qd0", "m/s, rad/s")
+        self.baumgarte_alpha = _checks.as_float(baumgarte_alpha, "Baumgarte alpha", "1/s")
+        self.baumgarte_beta = _checks.as_float(baumgarte_beta, "Baumgarte beta", "1/s")
         n = 3 * len(self.bodies)
         if not self.bodies:
             raise ValueError("A Mechanism needs at least one moving body.")

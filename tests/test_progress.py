@@ -1,0 +1,59 @@
+"""`simulate(progress=label)` shows one tqdm bar per run that moves over [t0, t1] across all
+segments, with few host callbacks, also under vmap (issue 13)."""
+
+import sys
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import pytest
+
+import jaxbearing as jb
+
+simulate_module = sys.modules["jaxbearing.simulate"]
+
+
+@pytest.fixture
+def reports(monkeypatch):
+    """The fractions reported to the host (the callback is looked up when a label is traced)."""
+    seen = []
+    advance = simulate_module._advance
+
+    def spy(label, fraction, span):
+        seen.append(float(fraction))
+        advance(label, fraction, span)
+
+    monkeypatch.setattr(simulate_module, "_advance", spy)
+    return seen
+
+
+def bars(err, label):
+    """The lines of stderr that show ``label``'s bar (tqdm redraws with carriage returns)."""
+    return [line for line in err.split("\n") if f"{label}:" in line]
+
+
+def test_one_bar_per_run_across_segments(capsys, reports):
+    model = jb.cases.xu2014(impact=False)
+    sol = jax.block_until_ready(jb.simulate(model, 0.005, progress="short run"))
+    out, err = capsys.readouterr()
+    assert int(sol.num_segments) == 64  # one per time cell: 64 segments, one bar
+    [line] = bars(err, "short run")
+    assert "short run: 100%" in line and "0.0050 of 0.005 s" in line
+    assert out == "" and err.count("\n") == 1 and "100.0 %" not in err
+    assert reports[0] == 0.0 and reports[-1] == 1.0 and reports == sorted(reports)
+    assert len(reports) <= 52  # every 2 % and the start, however many segments
+    assert not simulate_module._BARS  # closed at t1
+
+
+def test_vmapped_runs_share_one_bar(capsys, reports):
+    model = jb.cases.xu2014(impact=False)
+    run = jax.vmap(
+        lambda c: jb.simulate(
+            eqx.tree_at(lambda m: m.bearing.clearance, model, c), 0.005, progress="batch"
+        ).ball_loads
+    )
+    jax.block_until_ready(run(jnp.array([20e-6, 40e-6, 60e-6])))
+    _, err = capsys.readouterr()
+    [line] = bars(err, "batch")
+    assert "batch: 100%" in line
+    assert reports[0] == 0.0 and reports[-1] == 1.0 and len(reports) <= 52

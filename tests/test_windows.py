@@ -1,0 +1,109 @@
+"""A metric or life over a window without output times has no value: it raises when the
+inputs are concrete, and is NaN with a warning when traced (jit, vmap, sweeps); never -inf or an
+infinite life."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxbearing as jb
+from jaxbearing import life, metrics
+
+TS = np.linspace(0.0, 0.005, 51)  # a run shorter than the default window start, 0.04 s
+EMPTY = r"t_min = 0\.04 s to t_max = inf s must hold at least one of the output times, which " \
+    r"span \[0, 0\.005\] s: lower t_min \(default 0\.04 s"
+
+
+class Short(eqx.Module):
+    """The fields of a `Solution` that the metrics read."""
+
+    ts: jax.Array
+    q: jax.Array
+    ball_loads: jax.Array
+    bearing_force: jax.Array
+    contact_force: jax.Array
+
+
+def short_solution(ts=TS):
+    T = len(ts)
+    return Short(
+        ts=jnp.asarray(ts),
+        q=jnp.ones((T, 12)),
+        ball_loads=jnp.ones((T, 8)),
+        bearing_force=jnp.ones((T, 2)),
+        contact_force=jnp.ones(T),
+    )
+
+
+ALL = {**metrics.STANDARD, **metrics.SMOOTH}
+
+
+@pytest.mark.parametrize("name", sorted(ALL))
+def test_empty_window_raises_naming_t_min_and_the_span(name):
+    with pytest.raises(ValueError, match=EMPTY):
+        ALL[name](short_solution())
+
+
+@pytest.mark.parametrize("name", sorted(ALL))
+def test_empty_window_is_nan_and_warns_under_jit_and_vmap(name):
+    fn = ALL[name]
+    with pytest.warns(UserWarning, match=EMPTY + r".*; the metric is NaN\."):
+        value = float(jax.jit(fn)(short_solution()))
+    assert np.isnan(value)
+    one = short_solution()
+    two = lambda x: jnp.stack([x, 2.0 * x])  # noqa: E731
+    batch = Short(one.ts, two(one.q), two(one.ball_loads), two(one.bearing_force), two(one.contact_force))
+    axes = Short(ts=None, q=0, ball_loads=0, bearing_force=0, contact_force=0)  # times shared
+    with pytest.warns(UserWarning, match=EMPTY):
+        values = np.asarray(jax.jit(jax.vmap(fn, in_axes=(axes,)))(batch))
+    assert values.shape == (2,) and np.isnan(values).all()
+
+
+def test_window_with_one_output_time_has_a_value():
+    sol = short_solution()
+    assert float(metrics.peak_ball_load(sol, t_min=TS[-1])) == 1.0
+    assert float(jax.jit(lambda s: metrics.peak_bearing_force(s, t_min=TS[-1]))(sol)) == \
+        pytest.approx(np.sqrt(2.0))
+
+
+def test_simulated_short_run_and_its_vmapped_batch():
+    """The case of issue 15: a run to t1 = 0.005 s with the default window."""
+    model = jb.cases.xu2014(impact=False)
+    sol = jb.simulate(model, 0.005, TS)
+    with pytest.raises(ValueError, match=EMPTY):
+        metrics.peak_ball_load(sol)
+
+    def member(c):
+        s = jb.simulate(eqx.tree_at(lambda m: m.bearing.clearance, model, c), 0.005, TS)
+        return metrics.peak_ball_load(s), metrics.peak_ball_load(s, t_min=0.0)
+
+    with pytest.warns(UserWarning, match=EMPTY):  # as in a sweep: the times are traced
+        empty, full = jax.jit(jax.vmap(member))(jnp.array([20e-6, 40e-6]))
+    assert np.isnan(np.asarray(empty)).all() and np.isfinite(np.asarray(full)).all()
+
+
+LIFE_EMPTY = r"t_min = 0\.04 s to t_max = inf s must hold at least two of the output times, " \
+    r"which span \[0, 0\.005\] s"
+
+
+def life_values(ts, force, rel, loads):
+    return (
+        life.equivalent_load(ts, force, rel),
+        life.mean_speed_rpm(ts, rel),
+        life.ball_equivalent_load(ts, loads, rel, 3.0),
+        life.ring_equivalent_load(ts, loads, rel),
+        life.rating_life(15e3, life.equivalent_load(ts, force, rel)),
+    )
+
+
+def test_life_over_an_empty_window_raises_or_is_nan_with_a_warning():
+    args = (TS, np.ones((TS.size, 2)), np.full(TS.size, 20.0 * np.pi), np.ones((TS.size, 8)))
+    with pytest.raises(ValueError, match=LIFE_EMPTY):
+        life_values(*args)
+    with pytest.warns(UserWarning, match=LIFE_EMPTY + r".*; the metric is NaN\."):
+        values = [float(v) for v in jax.jit(life_values)(*args)]
+    assert np.isnan(values).all()  # the rating life was +inf
+    longer = jax.jit(life_values)(np.linspace(0.0, 0.1, 51), *args[1:])  # a window that holds
+    assert np.isfinite([float(v) for v in longer]).all()
