@@ -36,12 +36,15 @@ def test_one_bar_per_run_across_segments(capsys, reports):
     model = jb.cases.xu2014(impact=False)
     sol = jax.block_until_ready(jb.simulate(model, 0.005, progress="short run"))
     out, err = capsys.readouterr()
-    assert int(sol.num_segments) == 64  # one per time cell: 64 segments, one bar
+    assert int(sol.num_segments) > 64  # a segment per time cell and per ball switch, one bar
     [line] = bars(err, "short run")
     assert "short run: 100%" in line and "0.0050 of 0.005 s" in line
     assert out == "" and err.count("\n") == 1 and "100.0 %" not in err
-    assert reports[0] == 0.0 and reports[-1] == 1.0 and reports == sorted(reports)
-    assert len(reports) <= 52  # every 2 % and the start, however many segments
+    assert reports[0] == 0.0 and reports[-1] == 1.0
+    # a segment that ends at an event restarts just before the last step it reported (that
+    # step ran past the event), so a 2 % cell may be reported twice; the bar never moves back
+    assert all(b > a - 0.02 for a, b in zip(reports, reports[1:]))
+    assert len(reports) <= 2 * 51  # at most twice per 2 % cell, however many segments
     assert not simulate_module._BARS  # closed at t1
 
 
@@ -56,4 +59,4 @@ def test_vmapped_runs_share_one_bar(capsys, reports):
     _, err = capsys.readouterr()
     [line] = bars(err, "batch")
     assert "batch: 100%" in line
-    assert reports[0] == 0.0 and reports[-1] == 1.0 and len(reports) <= 52
+    assert reports[0] == 0.0 and reports[-1] == 1.0 and len(reports) <= 2 * 51, len(reports)
