@@ -22,6 +22,7 @@ import equinox.internal as eqxi
 import diffrax
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
 from optimistix._solver.bisection import _BisectionState  # state of the subclass below
 
@@ -184,8 +185,8 @@ def simulate(
 
     Args:
         model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
-        t1: final time [s], > t0.
-        ts: output times, increasing, within [t0, t1] (default 1001 points).
+        t1: final time [s], finite, > t0.
+        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points).
         solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
             stiff solver.
         rtol, atol: error control of the PID step-size controller (state in m, rad, m/s).
@@ -209,11 +210,9 @@ def simulate(
     _checks.require_x64()
     if not isinstance(model, Mechanism):
         raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    if ts is None:
-        ts = jnp.linspace(t0, t1, 1001)
-    ts = jnp.asarray(ts, dtype=jnp.float64)
-    if _concrete(t1) and _concrete(t0) and not float(t1) > float(t0):
-        raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+    _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
+    t0, t1 = _checked_span(t0, t1)
+    ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
@@ -223,8 +222,8 @@ def simulate(
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
     sol = _simulate(
         model,
-        jnp.asarray(t0, jnp.float64),
-        jnp.asarray(t1, jnp.float64),
+        t0,
+        t1,
         ts,
         solver,
         stepsize_controller,
@@ -237,6 +236,49 @@ def simulate(
     if throw:
         sol = _raise_on_failure(sol, t1)
     return sol
+
+
+def _checked_span(t0, t1):
+    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
+    or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
+    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    if _concrete(t0) and _concrete(t1):
+        for name, t in (("t0", t0), ("t1", t1)):
+            if t.ndim or not jnp.isfinite(t):
+                raise ValueError(f"{name} must be a finite number [s]; got {name} = {t}.")
+        if not t1 > t0:
+            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+        return t0, t1
+    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
+    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
+
+
+def _checked_ts(ts, t0, t1):
+    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
+    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
+    ts = jnp.asarray(ts, jnp.float64)
+    if ts.ndim != 1 or ts.shape[0] == 0:
+        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
+    if not (_concrete(ts) and _concrete(t0) and _concrete(t1)):
+        return ts
+    t = np.asarray(ts)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
+    back = np.flatnonzero(t[1:] < t[:-1])
+    if back.size:
+        i = back[0]
+        raise ValueError(
+            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
+            f"after ts[{i}] = {t[i]:.6g}."
+        )
+    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
+    if out.size:
+        i = out[0]
+        raise ValueError(
+            f"ts must lie within [t0, t1] = [{float(t0):.6g}, {float(t1):.6g}] s; got ts[{i}] = {t[i]:.6g}."
+        )
+    return ts
 
 
 def _ahead(ts, t_start, t_end, done):
