@@ -202,10 +202,13 @@ def simulate(
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label to print progress under, or None.
-        adjoint: how diffrax differentiates each segment: the default
-            `diffrax.RecursiveCheckpointAdjoint()` serves `jax.grad` (reverse mode);
-            `diffrax.ForwardMode()` serves `jax.jacfwd`, the cheaper choice for a few
-            parameters (see `jaxbearing.gradients`).
+        adjoint: how diffrax differentiates each segment. The default (None) is
+            `diffrax.RecursiveCheckpointAdjoint()`, which serves `jax.grad` and `jax.jacrev`
+            (reverse mode), and becomes `diffrax.ForwardMode()` when `simulate` is traced
+            under `jax.jacfwd` or `jax.jvp` (forward mode, the cheaper for a few parameters;
+            `jaxbearing.sensitivity`). Forward mode around your own `jax.jit` of `simulate`
+            (``jax.jacfwd(jax.jit(f))``) traces `simulate` before the jvp: pass
+            ``adjoint=diffrax.ForwardMode()`` there.
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):
@@ -220,7 +223,9 @@ def simulate(
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
-    sol = _simulate(
+    sol = _with_adjoint(
+        adjoint,
+        _simulate,
         model,
         t0,
         t1,
@@ -231,11 +236,32 @@ def simulate(
         max_segments,
         time_cells,
         progress,
-        diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
     )
     if throw:
         sol = _raise_on_failure(sol, t1)
     return sol
+
+
+_NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
+
+
+def _with_adjoint(adjoint, solve, *args):
+    """``solve(*args, adjoint)``; the default (None) is `diffrax.RecursiveCheckpointAdjoint()`,
+    and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`) meets it (diffrax's reverse-mode
+    adjoints are `jax.custom_vjp`s and refuse jvp while tracing), `diffrax.ForwardMode()`. An
+    explicit adjoint that refuses forward mode gets a `TypeError` naming the one to pass."""
+    try:
+        return solve(*args, diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
+    except TypeError as err:
+        if _NO_JVP not in str(err):
+            raise
+        if adjoint is None:
+            return solve(*args, diffrax.ForwardMode())
+        raise TypeError(
+            f"simulate is differentiated in forward mode (jax.jacfwd, jax.jvp), which "
+            f"adjoint={type(adjoint).__name__}() does not support (it is reverse mode only): "
+            "pass adjoint=diffrax.ForwardMode(), or leave adjoint unset."
+        ) from err
 
 
 def _checked_span(t0, t1):
