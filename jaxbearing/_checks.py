@@ -1,7 +1,8 @@
 """Validation of physical parameters, in one place for construction and for `simulate`.
 
 Every parameter Module lists its rules once, as ``(condition_that_is_wrong, message)`` pairs
-returned by a ``violations()`` method. The rules are enforced twice:
+returned by a ``violations()`` method; on top of them every floating leaf must be finite
+(`finite_leaves`). The rules are enforced twice:
 
 - at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
   and what is allowed, whenever the values are concrete;
@@ -80,16 +81,31 @@ def enforce(x, violations: Iterable[tuple[object, str, object]]):
     return eqx.branched_error_if(x, jnp.any(wrong), jnp.argmax(wrong), messages)
 
 
+def finite_leaves(module, prefix: str = "") -> list:
+    """One rule per floating array leaf of ``module``: it must be finite. Each is named by its
+    dotted path (``"forces.0.bearing.stiffness"``, as in `jaxbearing.paths`) after ``prefix``.
+    A NaN passes every comparison rule, and a NaN or infinite parameter (an optimiser's step,
+    `eqx.tree_at`) would have the solver shrink its step until ``max_steps``."""
+    rules = []
+    for path, leaf in jax.tree_util.tree_leaves_with_path(module):
+        if eqx.is_inexact_array(leaf) or isinstance(leaf, (float, np.floating)):  # tree_at may set floats
+            name = prefix + jax.tree_util.keystr(path, simple=True, separator=".")
+            rules.append((~jnp.isfinite(leaf), f"{name} must be finite (not NaN or infinite)", leaf))
+    return rules
+
+
+def check_init(module) -> None:
+    """The construction check of a parameter Module: every floating leaf finite (named
+    ``Class.field``), then the Module's own ``violations()``."""
+    raise_if_concrete(finite_leaves(module, f"{type(module).__name__}.") + module.violations())
+
+
 def positive(name: str, value, unit: str):
     return (jnp.asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
 
 
 def non_negative(name: str, value, unit: str):
     return (jnp.asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
-
-
-def finite(name: str, value, unit: str):
-    return (~jnp.isfinite(jnp.asarray(value)), f"{name} must be finite [{unit}]", value)
 
 
 def in_open_interval(name: str, value, low: float, high: float):

@@ -4,7 +4,9 @@ XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's 
 slower and run it no faster: with ``xla_cpu_use_fusion_emitters`` off, XLA's compile of a 0.2 s
 simulation took 3.8 s instead of 7.2 s, of its 3-parameter forward-mode gradient 7.1 s instead
 of 10.8 s, of Kvaerno5 with the smooth ball force 12.4 s instead of 16.4 s, at equal or lower run
-time (benchmarks/run.py measures the end result). Accelerator backends ignore ``xla_cpu_*`` options.
+time (benchmarks/run.py measures the end result). The option exists on XLA:CPU only: GPU builds
+of JAX refuse it ("No such compile option"), so `jit` passes it only when it compiles for the
+CPU (`compiler_options`, `target_platform`) and passes no options elsewhere.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
@@ -21,6 +23,7 @@ from __future__ import annotations
 import functools
 
 import equinox as eqx
+import jax
 
 try:  # True outside every transformation; private, so without it the options are not applied
     from jax._src.core import trace_state_clean
@@ -28,19 +31,45 @@ except ImportError:  # pragma: no cover
     def trace_state_clean() -> bool:
         return False
 
-COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+
+
+def compiler_options(platform: str) -> dict:
+    """The XLA options for a platform (``"cpu"``, ``"gpu"``, ``"cuda"``, ``"tpu"``, ...):
+    `CPU_COMPILER_OPTIONS` on the CPU, none elsewhere."""
+    return dict(CPU_COMPILER_OPTIONS) if platform == "cpu" else {}
+
+
+def target_platform(args) -> str:
+    """The platform a call with inputs ``args`` (a pytree) compiles for: that of its first
+    input committed to a device (`jax.device_put`), else that of `jax.default_device`, else
+    JAX's default backend."""
+    for leaf in jax.tree_util.tree_leaves(args):
+        if isinstance(leaf, jax.Array) and not isinstance(leaf, jax.core.Tracer) and leaf.committed:
+            return next(iter(leaf.devices())).platform
+    default = jax.config.jax_default_device
+    if default is not None:
+        return default if isinstance(default, str) else default.platform
+    return jax.default_backend()
 
 
 def jit(fun=None, **jitkwargs):
-    """`eqx.filter_jit` with `COMPILER_OPTIONS` at the top level (usable as ``@jit`` or
-    ``jit(f, donate=...)``)."""
+    """`eqx.filter_jit` with `compiler_options` of the target platform at the top level (usable
+    as ``@jit`` or ``jit(f, donate=...)``)."""
     if fun is None:
         return lambda f: jit(f, **jitkwargs)
-    top = eqx.filter_jit(fun, compiler_options=COMPILER_OPTIONS, **jitkwargs)
+    compiled = {}  # platform -> filter_jit with that platform's options
     nested = eqx.filter_jit(fun, **jitkwargs)
 
     @functools.wraps(fun)
     def call(*args, **kwargs):
-        return (top if trace_state_clean() else nested)(*args, **kwargs)
+        if not trace_state_clean():
+            return nested(*args, **kwargs)
+        platform = target_platform((args, kwargs))
+        if platform not in compiled:
+            compiled[platform] = eqx.filter_jit(
+                fun, compiler_options=compiler_options(platform) or None, **jitkwargs
+            )
+        return compiled[platform](*args, **kwargs)
 
     return call

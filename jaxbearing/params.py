@@ -137,7 +137,6 @@ class BallBearing(eqx.Module):
     def violations(self):
         return [
             _checks.non_negative("bearing clearance", self.clearance, "m"),
-            _checks.finite("bearing clearance", self.clearance, "m"),
             _checks.positive("bearing stiffness", self.stiffness, "N/m^n"),
             _checks.non_negative("bearing damping", self.damping, "N s/m"),
             _checks.positive("inner raceway diameter", self.inner_race_diameter, "m"),
@@ -150,7 +149,7 @@ class BallBearing(eqx.Module):
         ]
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.check_init(self)
 
 
 class Impact(eqx.Module):
@@ -201,4 +200,4 @@ class Impact(eqx.Module):
         ]
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.check_init(self)

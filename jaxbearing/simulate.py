@@ -237,8 +237,8 @@ def simulate(
 
     Args:
         model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
-        t1: final time [s], > t0.
-        ts: output times, increasing, within [t0, t1] (default 1001 points).
+        t1: final time [s], finite, > t0.
+        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points).
         solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
             stiff solver.
         rtol, atol: error control of the PID step-size controller (state in m, rad, m/s).
@@ -257,19 +257,20 @@ def simulate(
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
-        adjoint: how diffrax differentiates each segment: the default
-            `diffrax.RecursiveCheckpointAdjoint()` serves `jax.grad` (reverse mode);
-            `diffrax.ForwardMode()` serves `jax.jacfwd`, the cheaper choice for a few
-            parameters (see `jaxbearing.sensitivity`).
+        adjoint: how diffrax differentiates each segment. The default (None) is
+            `diffrax.RecursiveCheckpointAdjoint()`, which serves `jax.grad` and `jax.jacrev`
+            (reverse mode), and becomes `diffrax.ForwardMode()` when `simulate` is traced
+            under `jax.jacfwd` or `jax.jvp` (forward mode, the cheaper for a few parameters;
+            `jaxbearing.sensitivity`). Forward mode around your own `jax.jit` of `simulate`
+            (``jax.jacfwd(jax.jit(f))``) traces `simulate` before the jvp: pass
+            ``adjoint=diffrax.ForwardMode()`` there.
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):
         raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    if ts is None:
-        ts = jnp.linspace(t0, t1, 1001)
-    ts = jnp.asarray(ts, dtype=jnp.float64)
-    if _concrete(t1) and _concrete(t0) and not float(t1) > float(t0):
-        raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+    _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
+    t0, t1 = _checked_span(t0, t1)
+    ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     if max_segments is None:
         max_segments = default_max_segments(model, t0, t1)
     if max_segments < 1:
@@ -284,10 +285,12 @@ def simulate(
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
-    sol = _simulate(
+    sol = _with_adjoint(
+        adjoint,
+        _simulate,
         model,
-        jnp.asarray(t0, jnp.float64),
-        jnp.asarray(t1, jnp.float64),
+        t0,
+        t1,
         ts,
         solver,
         stepsize_controller,
@@ -296,7 +299,6 @@ def simulate(
         time_cells,
         output_block,
         progress,
-        diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
     )
     if throw:
         sol = _raise_on_failure(sol, t1)
@@ -312,6 +314,73 @@ def default_max_segments(model: Mechanism, t0, t1) -> int:
         return 1
     span = float(t1) - float(t0) if _concrete(t1) and _concrete(t0) else 1.0
     return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
+
+
+_NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
+
+
+def _with_adjoint(adjoint, solve, *args):
+    """``solve(*args, adjoint)``; the default (None) is `diffrax.RecursiveCheckpointAdjoint()`,
+    and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`) meets it (diffrax's reverse-mode
+    adjoints are `jax.custom_vjp`s and refuse jvp while tracing), `diffrax.ForwardMode()`. An
+    explicit adjoint that refuses forward mode gets a `TypeError` naming the one to pass."""
+    try:
+        return solve(*args, diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
+    except TypeError as err:
+        if _NO_JVP not in str(err):
+            raise
+        if adjoint is None:
+            return solve(*args, diffrax.ForwardMode())
+        raise TypeError(
+            f"simulate is differentiated in forward mode (jax.jacfwd, jax.jvp), which "
+            f"adjoint={type(adjoint).__name__}() does not support (it is reverse mode only): "
+            "pass adjoint=diffrax.ForwardMode(), or leave adjoint unset."
+        ) from err
+
+
+def _checked_span(t0, t1):
+    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
+    or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
+    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    if _concrete(t0) and _concrete(t1):
+        for name, t in (("t0", t0), ("t1", t1)):
+            if t.ndim or not jnp.isfinite(t):
+                raise ValueError(f"{name} must be a finite number [s]; got {name} = {t}.")
+        if not t1 > t0:
+            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+        return t0, t1
+    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
+    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
+
+
+def _checked_ts(ts, t0, t1):
+    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
+    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
+    ts = jnp.asarray(ts, jnp.float64)
+    if ts.ndim != 1 or ts.shape[0] == 0:
+        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
+    if not (_concrete(ts) and _concrete(t0) and _concrete(t1)):
+        return ts
+    t = np.asarray(ts)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
+    back = np.flatnonzero(t[1:] < t[:-1])
+    if back.size:
+        i = back[0]
+        raise ValueError(
+            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
+            f"after ts[{i}] = {t[i]:.6g}."
+        )
+    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
+    if out.size:
+        i = out[0]
+        raise ValueError(
+            f"ts must lie within [t0, t1] = [{float(t0):.6g}, {float(t1):.6g}] s; got ts[{i}] = {t[i]:.6g}."
+        )
+    return ts
+
+
 
 
 def default_output_block(ts, t0, t1, time_cells: int) -> int:
@@ -452,7 +521,9 @@ def _simulate(
     cell_ends = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
 
     def segment(c: _Carry, slot):
-        t_stop = cell_ends[c.cell]
+        # finished members (reached t1, or failed: then t is set to t1 with the cell where it
+        # failed) idle in zero-length solves, never backwards from t1 to their cell's end
+        t_stop = jnp.where(c.done, c.t, cell_ends[c.cell])
         k, save_ts = _block(ts, c.t, t_stop, c.done, block)
         meter = (
             diffrax.NoProgressMeter()

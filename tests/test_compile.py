@@ -1,14 +1,18 @@
-"""`jaxbearing.jit`: compiler options at the top level, plain compilation when nested.
+"""`jaxbearing.jit`: compiler options at the top level, plain compilation when nested, CPU
+options for the CPU only.
 
 JAX refuses compiler options on a jit inside another transformation ("can only be passed to
-top-level jax.jit"); `simulate` must keep working inside a user's jit, vmap and grad.
+top-level jax.jit"), and GPU builds refuse XLA:CPU's options ("No such compile option");
+`simulate` must keep working inside a user's jit, vmap and grad, and on every backend.
 """
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import jaxbearing as jb
+from jaxbearing import compile as jbcompile
 
 
 @jb.jit
@@ -32,3 +36,41 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
     nested = jax.jit(lambda m: jb.simulate(m, 0.002, ts, time_cells=1))(model)
     # other XLA options may round differently: equal within the solver's tolerance
     np.testing.assert_allclose(nested.q, top.q, rtol=0, atol=1e-9)
+
+
+def test_cpu_options_go_to_the_cpu_only():
+    assert jbcompile.compiler_options("cpu") == {"xla_cpu_use_fusion_emitters": False}
+    for platform in ("gpu", "cuda", "rocm", "tpu", "METAL"):
+        assert jbcompile.compiler_options(platform) == {}
+
+
+def test_target_platform_follows_committed_inputs_then_default_device_then_backend():
+    x = jnp.ones(3)
+    assert jbcompile.target_platform((x,)) == jax.default_backend() == "cpu"
+    with jax.default_device("gpu"):  # only read, never used: this machine has no GPU
+        assert jbcompile.target_platform((x,)) == "gpu"
+        committed = jax.device_put(x, jax.devices("cpu")[0])
+        assert jbcompile.target_platform(({"a": x, "b": committed},)) == "cpu"
+    with jax.default_device(jax.devices("cpu")[0]):
+        assert jbcompile.target_platform((x,)) == "cpu"
+
+
+def test_jit_compiles_for_a_gpu_target_without_cpu_options(monkeypatch):
+    """With a GPU as target, `jit` hands no compiler options to XLA (measured on the CPU, the
+    only backend here: the platform is faked, the compile is real)."""
+    passed = []
+    filter_jit = eqx.filter_jit
+
+    def spy(fun, **kwargs):
+        passed.append(kwargs.get("compiler_options"))
+        return filter_jit(fun, **kwargs)
+
+    monkeypatch.setattr(jbcompile.eqx, "filter_jit", spy)
+    monkeypatch.setattr(jbcompile, "target_platform", lambda args: "gpu")
+    f = jb.jit(lambda x: jnp.sum(jnp.sin(x)))
+    np.testing.assert_allclose(f(jnp.ones(2)), 2 * np.sin(1.0), rtol=1e-15)
+    assert passed == [None, None]  # the nested and the top-level (gpu) compilation
+    monkeypatch.setattr(jbcompile, "target_platform", lambda args: "cpu")
+    f(jnp.ones(2))
+    assert passed[-1] == {"xla_cpu_use_fusion_emitters": False}
+

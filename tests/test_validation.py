@@ -66,6 +66,12 @@ def pendulum(q0=(0.5, 0.0, 0.0), qd0=(0.0, 0.0, 0.0), speed=None):
     return Mechanism([Body(1.0, 0.1)], joints, list(q0), list(qd0))
 
 
+def simulate_with(where, value):
+    """0.02 s of the paper's case with one parameter set after construction (before these
+    checks, a NaN ball stiffness had it run for more than 15 minutes)."""
+    return jb.simulate(eqx.tree_at(where, jb.cases.xu2014(), value), 0.02)
+
+
 # (what is built, the whole message: parameter, allowed values and the value given)
 BAD_INPUTS = [
     # masses and inertias
@@ -123,6 +129,35 @@ BAD_INPUTS = [
      r"t1 must be greater than t0 = 0\.0 s; got t1 = 0\.0 s\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), -0.1),
      r"t1 must be greater than t0 = 0\.0 s; got t1 = -0\.1 s\."),
+    # output times (checked before compiling)
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), jnp.inf), r"t1 must be a finite number \[s\]; got t1 = inf\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), float("nan")), r"t1 must be a finite number \[s\]; got t1 = nan\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, 0.005, 0.002]),
+     r"ts must be increasing \(equal neighbours allowed\) \[s\]; got ts\[2\] = 0\.002 after ts\[1\] = 0\.005\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [-0.001, 0.005]),
+     r"ts must lie within \[t0, t1\] = \[0, 0\.01\] s; got ts\[0\] = -0\.001\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, 0.011]),
+     r"ts must lie within \[t0, t1\] = \[0, 0\.01\] s; got ts\[1\] = 0\.011\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, np.nan]), r"ts must be finite \[s\]; got ts\[1\] = nan\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, np.zeros((2, 3))),
+     r"ts must be a 1-D array of at least one output time \[s\]; got shape \(2, 3\)\."),
+    # non-finite values: at construction, and set later by eqx.tree_at (an optimiser's step)
+    (lambda: bearing(stiffness=np.nan), r"BallBearing\.stiffness must be finite \(not NaN or infinite\); got nan\."),
+    (lambda: Body(np.inf, 1.0), r"Body\.mass must be finite \(not NaN or infinite\); got inf\."),
+    (lambda: jb.cases.xu2014(clearance=np.nan), r"BallBearing\.clearance must be finite \(not NaN or infinite\); got nan\."),
+    (lambda: pendulum(qd0=(0.0, 0.0, np.nan)), r"qd0 must be finite \(not NaN or infinite\); got \[ 0\.  0\. nan\]\."),
+    (lambda: simulate_with(lambda m: m.bearing.stiffness, jnp.nan),
+     r"forces\.0\.bearing\.stiffness must be finite \(not NaN or infinite\); got nan\."),
+    (lambda: simulate_with(lambda m: m.bearing.stiffness, np.inf),
+     r"forces\.0\.bearing\.stiffness must be finite \(not NaN or infinite\); got inf\."),
+    (lambda: simulate_with(lambda m: m.bearing.clearance, jnp.asarray(np.nan)),
+     r"forces\.0\.bearing\.clearance must be finite \(not NaN or infinite\); got nan\."),
+    (lambda: simulate_with(lambda m: m.bearing.clearance, np.inf),
+     r"forces\.0\.bearing\.clearance must be finite \(not NaN or infinite\); got inf\."),
+    (lambda: simulate_with(lambda m: m.bodies[1].mass, np.float64(np.nan)),
+     r"bodies\.1\.mass must be finite \(not NaN or infinite\); got nan\."),
+    (lambda: simulate_with(lambda m: m.bodies[1].mass, jnp.asarray(-np.inf)),
+     r"bodies\.1\.mass must be finite \(not NaN or infinite\); got -inf\."),
     # bearing life ratings
     (lambda: jb.life.dynamic_load_rating(2, 8e-3, 39e-3), r"n_balls must be an integer of at least 3; got 2\."),
     (lambda: jb.life.dynamic_load_rating(9, -1e-3, 39e-3), r"ball_diameter must be positive \[m\]; got -0\.001\."),
@@ -174,15 +209,26 @@ def test_values_changed_after_construction_are_checked_in_simulate():
         jb.simulate(model, 1e-3, jnp.linspace(0.0, 1e-3, 3))
 
 
-def test_traced_bad_values_are_checked_under_vmap():
-    model = jb.cases.xu2014(impact=False)
+def _run_with_clearance(c):
+    m = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(impact=False), c)
+    return jb.simulate(m, 1e-4, jnp.linspace(0.0, 1e-4, 3)).q
 
-    def run(c):
-        m = eqx.tree_at(lambda m: m.bearing.clearance, model, c)
-        return jb.simulate(m, 1e-4, jnp.linspace(0.0, 1e-4, 3)).q
 
-    with pytest.raises(Exception, match="bearing clearance must be zero or positive"):
-        jax.vmap(run)(jnp.array([4e-5, -1e-5]))
+@pytest.mark.parametrize(
+    "bad, message",
+    [(-1e-5, "bearing clearance must be zero or positive"), (np.nan, "forces.0.bearing.clearance must be finite")],
+)
+def test_traced_bad_values_are_checked_under_vmap(bad, message):
+    with pytest.raises(Exception, match=message):
+        jax.vmap(_run_with_clearance)(jnp.array([4e-5, bad]))
+
+
+def test_traced_non_finite_times_are_checked():
+    from jaxbearing.simulate import _checked_span
+
+    with pytest.raises(Exception, match=r"t0 and t1 must be finite \[s\]"):
+        jax.jit(lambda t1: _checked_span(0.0, t1)[1])(jnp.inf)
+    assert jax.jit(lambda t1: _checked_span(0.0, t1)[1])(0.5) == 0.5
 
 
 def test_solver_failure_raises_with_time_and_advice():

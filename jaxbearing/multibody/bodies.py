@@ -34,7 +34,7 @@ class Body(eqx.Module):
         ]
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.check_init(self)
 
 
 def rotate(theta, s) -> jax.Array:

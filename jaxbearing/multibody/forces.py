@@ -150,7 +150,7 @@ class CircleContact(eqx.Module):
         ]
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.check_init(self)
 
     def gap(self, q, qd):
         """Penetration [m], its rate [m/s] (> 0 approaching), normal n, tangent t and the
@@ -227,7 +227,7 @@ class SpringDamper(eqx.Module):
         ]
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.check_init(self)
 
     def generalized_force(self, t, q, qd, q0, qd0):
         d = point_position(q, self.body_j, self.point_j) - point_position(q, self.body_i, self.point_i)

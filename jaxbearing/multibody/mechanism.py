@@ -230,8 +230,9 @@ class Mechanism(eqx.Module):
 
     # -- validation --------------------------------------------------------------------------
     def violations(self):
-        """Every rule on every parameter of the model, plus consistency of the initial state."""
-        rules = []
+        """Every rule on every parameter of the model, plus consistency of the initial state;
+        first that every floating leaf is finite (named by its dotted path)."""
+        rules = _checks.finite_leaves(self)
         for node in _modules_below(self):
             if hasattr(node, "violations"):
                 rules.extend(node.violations())
