@@ -13,7 +13,16 @@ from . import cases, laws, life, metrics, multibody, paths
 from .compile import jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
-from .simulate import RESULTS, Contacts, SimulationError, Solution, default_solver, kvaerno5, simulate
+from .simulate import (
+    RESULTS,
+    Contacts,
+    SimulationError,
+    Solution,
+    default_max_segments,
+    default_solver,
+    kvaerno5,
+    simulate,
+)
 from .sweep import sweep
 from .tune import TuneResult, sensitivity, tune
 
@@ -29,6 +38,7 @@ __all__ = [
     "TuneResult",
     "Solution",
     "cases",
+    "default_max_segments",
     "default_solver",
     "jit",
     "kvaerno5",

@@ -96,7 +96,9 @@ def check_user_transforms_and_vmap(c):
         assert float(batched[1]) == pytest.approx(converged_difference(c.value, second, name), rel=AGREE)
 
 
-@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
+@pytest.mark.parametrize(
+    "ball_force", ["paper", pytest.param("smooth", marks=pytest.mark.slow)]  # suite time: 1 min each
+)
 def test_derivatives_without_impact(ball_force):
     c = case(ball_force, impact=False)
     check_paths(c)

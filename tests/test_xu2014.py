@@ -156,4 +156,4 @@ def test_time_cells_do_not_change_the_motion(with_impact):
     onsets = lambda s: np.asarray(s.contacts.time)[np.asarray(s.contacts.valid)]
     np.testing.assert_allclose(onsets(with_impact), onsets(one), atol=1e-9)
     with pytest.raises(ValueError, match="time_cells must be at least 1; got 0"):
-        jb.simulate(model, 0.1, TS, time_cells=0)
+        jb.simulate(model, 0.2, TS, time_cells=0)
