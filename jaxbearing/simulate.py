@@ -48,7 +48,7 @@ EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
-WINDOW_START = 0.04  # [s] default start of the metrics' window (`metrics.T_MIN`), always a segment end
+WINDOW_START = 0.04  # [s] start of the metrics' default window (`metrics.T_MIN`); always a stop
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
@@ -56,7 +56,8 @@ GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
 GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 # columns of SegmentStats.peaks and .integrals
 PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1, 2, 3
-INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER, INT_TIME = range(5)
+(INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER,
+ INT_TIME) = range(5)
 
 
 class RESULTS(diffrax.RESULTS):
@@ -295,7 +296,8 @@ def simulate(
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
-    solver = _with_root_tolerances(solver, stepsize_controller)
+    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+    solver = _for_adjoint(_with_root_tolerances(solver, stepsize_controller), adjoint)
     stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
     sol = _simulate(
         model,
@@ -310,7 +312,7 @@ def simulate(
         stops,
         output_block,
         progress,
-        diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
+        adjoint,
     )
     if throw:
         sol = _raise_on_failure(sol, t1)
@@ -491,7 +493,9 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
 
     def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
         inner, stats, last = solver_state
-        y1, error, dense, inner, result = self.solver.step(terms, t0, t1, y0, args, inner, made_jump)
+        y1, error, dense, inner, result = self.solver.step(
+            terms, t0, t1, y0, args, inner, made_jump
+        )
         stats = _add(stats, _close(self.model, self.solver, last, last[1], args))
         t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
         return y1, error, dense, (inner, stats, (t0, t1, dense)), result
@@ -541,6 +545,18 @@ def _stops(t0, t1, time_cells, extra):
     stops = jnp.sort(jnp.concatenate([cells, extra]))
     repeated = jnp.concatenate([jnp.zeros(1, bool), stops[1:] == stops[:-1]])
     return jnp.sort(jnp.where(repeated, t1, stops))
+
+
+def _for_adjoint(solver, adjoint):
+    """A Runge–Kutta solver with the stage loop that ``adjoint`` can differentiate, as
+    `diffeqsolve` chooses it for an unwrapped solver: "lax" for forward mode, "bounded" for the
+    checkpointed reverse mode."""
+    kinds = {diffrax.ForwardMode: "lax", diffrax.RecursiveCheckpointAdjoint: "bounded"}
+    kind = kinds.get(type(adjoint))
+    runge_kutta = isinstance(solver, diffrax.AbstractRungeKutta)
+    if kind is None or not runge_kutta or solver.scan_kind is not None:
+        return solver
+    return eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)
 
 
 def _concrete(x) -> bool:
