@@ -103,12 +103,14 @@ def _segments(sol: Solution, t_min, t_max):
         near = s.valid & (jnp.abs(ends - t) <= EDGE_TOLERANCE)
         return (t <= start + EDGE_TOLERANCE) | (t >= end - EDGE_TOLERANCE) | jnp.any(near)
 
-    ok = is_edge(t_min, s.t_start) & is_edge(t_max, s.t_end)
+    edges = ((t_min, is_edge(t_min, s.t_start)), (t_max, is_edge(t_max, s.t_end)))
+    ok = edges[0][1] & edges[1][1]
     if _concrete(ok) and not bool(ok):
+        missing = tuple(float(t) for t, edge in edges if not bool(edge))
         raise ValueError(
             f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
-            "solution's segments: pass them to simulate, e.g. "
-            f"simulate(..., window_edges=({float(t_min)}, {float(t_max)}))."
+            f"solution's segments (not: {', '.join(map(str, missing))} s): pass the edges to "
+            f"simulate, as simulate(..., window_edges={missing})."
         )
     inside = s.valid & (s.t_start >= t_min - EDGE_TOLERANCE) & (s.t_end <= t_max + EDGE_TOLERANCE)
     return inside, ok
