@@ -548,15 +548,12 @@ def _stops(t0, t1, time_cells, extra):
 
 
 def _for_adjoint(solver, adjoint):
-    """A Runge–Kutta solver with the stage loop that ``adjoint`` can differentiate, as
-    `diffeqsolve` chooses it for an unwrapped solver: "lax" for forward mode, "bounded" for the
-    checkpointed reverse mode."""
-    kinds = {diffrax.ForwardMode: "lax", diffrax.RecursiveCheckpointAdjoint: "bounded"}
-    kind = kinds.get(type(adjoint))
+    """A Runge–Kutta solver whose stage loop forward mode can differentiate ("lax"), as
+    `diffeqsolve` chooses it for an unwrapped solver under `diffrax.ForwardMode`."""
     runge_kutta = isinstance(solver, diffrax.AbstractRungeKutta)
-    if kind is None or not runge_kutta or solver.scan_kind is not None:
+    if not isinstance(adjoint, diffrax.ForwardMode) or not runge_kutta or solver.scan_kind is not None:
         return solver
-    return eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)
+    return eqx.tree_at(lambda s: s.scan_kind, solver, "lax", is_leaf=lambda x: x is None)
 
 
 def _concrete(x) -> bool:
