@@ -87,7 +87,7 @@ def test_window_edges_must_be_segment_ends(model, coarse):
     assert np.isnan(float(M.rms_bearing_force(sol, t_min=T1)))  # empty window
 
 
-@pytest.mark.slow  # ~110 s, mostly three compiles; tests/test_derivatives.py checks the RMS fast
+@pytest.mark.slow  # ~110 s cold, mostly compiles; tests/test_derivatives.py checks the RMS fast
 def test_smooth_metrics_have_exact_derivatives():
     """jax.jacrev and jax.jacfwd of the RMS bearing force and the smooth peak ball load against
     converged central differences (tests/test_derivatives.py), paper force, without impact."""
