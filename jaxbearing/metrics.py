@@ -1,23 +1,34 @@
 """Scalar metrics of a `Solution`, over a time window (default t >= 0.04 s, after the start-up
 transient in which the rod falls onto the race and rings).
 
+They are computed from the solution itself, not from its output times: `simulate` records, per
+segment of the solve, the peaks and integrals over every accepted solver step and the step's
+interpolant (`SegmentStats`), and a metric combines the segments inside its window. So a metric
+has the same value whatever ``ts`` the simulation was asked for. A window's edges must be segment
+ends: ``t_min`` = `T_MIN` always is (`simulate` stops there), and `simulate`'s ``window_edges``
+adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
+cannot be checked in Python, makes the metric NaN.
+
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
 differentiation transforms:
 
-- the exact peaks (``peak_*``, ``max_*``) are differentiable almost everywhere: their derivative
-  is that of the sample that attains the maximum, which jumps when another sample takes over;
-  fine for sensitivities at one design point, poor for optimisation;
-- the smooth versions (``smooth_*``) replace the maximum by a power mean
-  (sum w x^p / sum w)^(1/p), which lies below the maximum, approaches it as p grows, and is
-  differentiable everywhere: use them as objectives for `jax.grad` and optax. The RMS bearing
-  force is smooth already.
+- the exact peaks (``peak_*``, ``max_*``) are maxima over the points the steps record (each
+  step's end and 3 Gauss–Legendre points): differentiable almost everywhere, with the derivative
+  of the point that attains the maximum, which jumps when another point takes over; fine for
+  sensitivities at one design point, poor for optimisation;
+- the smooth versions (``smooth_*``) replace the maximum by the power mean
+  (1/T integral x^p dt)^(1/p) over the window of duration T, which lies below the maximum,
+  approaches it as p grows, and is differentiable everywhere: use them as objectives for
+  `jax.grad` and optax. The RMS bearing force is smooth already. Their integrals are 3-point
+  Gauss–Legendre quadratures of each step's interpolant (exact for integrands of degree <= 5
+  over a step), recorded at p = `simulate.POWER` (16).
 
-Samples are weighted by the trapezoid rule on ``sol.ts``, so the means do not depend on how the
-output times are spaced. Forces in N, displacements in m.
+Forces in N, displacements in m.
 
-A window that holds no output time (e.g. a run to t1 < 0.04 s with the default t_min) has no
-value: with concrete ``sol.ts`` and window the metric raises a `ValueError` naming ``t_min`` and
-the span; traced (under jit or vmap, in sweeps) it is NaN and a warning says so at run time.
+A window that holds none of the solved span (e.g. a run to t1 < 0.04 s with the default t_min)
+has no value: with a concrete solution and window the metric raises a `ValueError` naming
+``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN and a warning says so at
+run time.
 
 A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
 is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
@@ -36,9 +47,23 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .simulate import Solution
+from .simulate import (
+    FORCE_SCALE,
+    INT_BALL_LOAD_POWER,
+    INT_BEARING_FORCE_POWER,
+    INT_BEARING_FORCE_SQUARED,
+    INT_CONTACT_FORCE_POWER,
+    INT_TIME,
+    PEAK_BALL_LOAD,
+    PEAK_BEARING_FORCE,
+    PEAK_CONTACT_FORCE,
+    PEAK_DISPLACEMENT,
+    POWER,
+    WINDOW_START,
+    Solution,
+)
 
-T_MIN = 0.04  # [s] start of the default window
+T_MIN = WINDOW_START  # [s] start of the default window (0.04 s), a segment end of every solve
 TARGET_X = 9  # coordinate of the target's x in `cases.xu2014` (body 3)
 
 
@@ -57,8 +82,9 @@ class WithModel:
 
 
 def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside; checked
-    by `check_window` (a window without output times)."""
+    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside (for
+    metrics of sampled series, such as `jaxbearing.life`'s); checked by `check_window` (a
+    window without output times)."""
     inside = ts >= t_min
     if t_max is not None:
         inside = inside & (ts <= t_max)
@@ -73,99 +99,159 @@ def check_window(ts, weights, t_min, t_max, need="one"):
     """A window whose weights [s] are all zero holds fewer than ``need`` output times: raise a
     `ValueError` when ``ts`` and the window [t_min, t_max] [s] are concrete; traced, warn at
     run time (the metrics of that window are NaN)."""
-    if all(not isinstance(x, jax.core.Tracer) for x in (ts, weights, t_min, t_max)):
-        if not np.any(np.asarray(weights) > 0):
-            raise ValueError(_empty_window(t_min, t_max, ts[0], ts[-1], need) + ".")
-        return
-    empty = eqxi.unvmap_any(~jnp.any(weights > 0))
-    lo = -jnp.inf if t_min is None else t_min
-    bounds = (lo, jnp.inf if t_max is None else t_max, ts[0], ts[-1])
-    warn = functools.partial(_warn_empty_window, need=need)
-    jax.lax.cond(
-        eqxi.nonbatchable(empty), lambda: jax.debug.callback(warn, *bounds), lambda: None
+    _check_not_empty(
+        jnp.any(weights > 0), t_min, t_max, ts[0], ts[-1], f"at least {need} of the output times, which span"
     )
 
 
-def _empty_window(t_min, t_max, first, last, need):
+def _check_not_empty(filled, t_min, t_max, first, last, what):
+    """Raise when ``filled`` is concretely False; traced, warn at run time if False."""
+    if all(not isinstance(x, jax.core.Tracer) for x in (filled, t_min, t_max, first, last)):
+        if not bool(filled):
+            raise ValueError(_empty_window(t_min, t_max, first, last, what) + ".")
+        return
+    lo = -jnp.inf if t_min is None else t_min
+    bounds = (lo, jnp.inf if t_max is None else t_max, first, last)
+    warn = functools.partial(_warn_empty_window, what=what)
+    jax.lax.cond(
+        eqxi.nonbatchable(eqxi.unvmap_any(~filled)),
+        lambda: jax.debug.callback(warn, *bounds),
+        lambda: None,
+    )
+
+
+def _empty_window(t_min, t_max, first, last, what):
     t_min = -np.inf if t_min is None else float(t_min)
     t_max = np.inf if t_max is None else float(t_max)
     return (
-        f"the window t_min = {t_min:.6g} s to t_max = {t_max:.6g} s must hold at least "
-        f"{need} of the output times, which span [{float(first):.6g}, {float(last):.6g}] s: "
-        f"lower t_min (default {T_MIN} s, after the start-up transient) or simulate longer"
+        f"the window t_min = {t_min:.6g} s to t_max = {t_max:.6g} s must hold {what} "
+        f"[{float(first):.6g}, {float(last):.6g}] s: lower t_min (default {T_MIN} s, after the "
+        "start-up transient) or simulate longer"
     )
 
 
-def _warn_empty_window(t_min, t_max, first, last, *, need):
-    warnings.warn(f"{_empty_window(t_min, t_max, first, last, need)}; the metric is NaN.")
+def _warn_empty_window(t_min, t_max, first, last, *, what):
+    warnings.warn(f"{_empty_window(t_min, t_max, first, last, what)}; the metric is NaN.")
 
 
-def _peak(values, weights):
-    """Max of values (T, ...) over samples with positive weight; NaN if there are none."""
-    weighted = weights.reshape((-1,) + (1,) * (values.ndim - 1)) > 0
-    peak = jnp.max(jnp.where(weighted, values, -jnp.inf))
-    return jnp.where(jnp.any(weighted), peak, jnp.nan)
+EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to a segment end counts as that end
 
 
-def _power_mean(values, weights, p):
-    """(sum w x^p / sum w)^(1/p) of non-negative values (T, ...), scaled for overflow safety."""
-    values = values.reshape(values.shape[0], -1)
-    scale = jax.lax.stop_gradient(jnp.maximum(_peak(values, weights), 1e-300))
-    x = values / scale
-    w = weights[:, None] * jnp.ones_like(x)
-    return scale * (jnp.sum(w * x**p) / jnp.sum(w)) ** (1.0 / p)
+def _concrete(*xs) -> bool:
+    return not any(isinstance(x, jax.core.Tracer) for x in xs)
 
 
-def _bearing_magnitude(sol: Solution):
+def _segments(sol: Solution, t_min, t_max):
+    """Which segments of ``sol`` lie in [t_min, t_max], and whether both edges are segment ends
+    (or outside the solved span). ValueError when they are not and that is known in Python."""
+    s = sol.segments
+    t_max = jnp.inf if t_max is None else t_max
+    t_min, t_max = jnp.asarray(t_min, jnp.float64), jnp.asarray(t_max, jnp.float64)
+    start = jnp.min(jnp.where(s.valid, s.t_start, jnp.inf))
+    end = jnp.max(jnp.where(s.valid, s.t_end, -jnp.inf))
+
+    def is_edge(t, ends):
+        near = s.valid & (jnp.abs(ends - t) <= EDGE_TOLERANCE)
+        return (t <= start + EDGE_TOLERANCE) | (t >= end - EDGE_TOLERANCE) | jnp.any(near)
+
+    edges = ((t_min, is_edge(t_min, s.t_start)), (t_max, is_edge(t_max, s.t_end)))
+    ok = edges[0][1] & edges[1][1]
+    if _concrete(ok) and not bool(ok):
+        missing = tuple(float(t) for t, edge in edges if not bool(edge))
+        raise ValueError(
+            f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
+            f"solution's segments (not: {', '.join(map(str, missing))} s): pass the edges to "
+            f"simulate, as simulate(..., window_edges={missing})."
+        )
+    inside = s.valid & (s.t_start >= t_min - EDGE_TOLERANCE) & (s.t_end <= t_max + EDGE_TOLERANCE)
+    _check_not_empty(jnp.any(inside), t_min, t_max, start, end, "part of the solved span")
+    return inside, ok
+
+
+def _peak(sol: Solution, column, t_min, t_max):
+    """Max of ``segments.peaks[:, column]`` over the window; NaN if empty or not on segment ends."""
+    inside, ok = _segments(sol, t_min, t_max)
+    peak = jnp.max(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
+    return jnp.where(ok & jnp.any(inside), peak, jnp.nan)
+
+
+def _integral(sol: Solution, column, t_min, t_max):
+    """(integral of ``segments.integrals[:, column]``, duration) over the window [.., s]; NaN
+    duration if the edges are not segment ends."""
+    inside, ok = _segments(sol, t_min, t_max)
+    total = jnp.sum(jnp.where(inside[:, None], sol.segments.integrals, 0.0), axis=0)
+    return total[column], jnp.where(ok, total[INT_TIME], jnp.nan)
+
+
+def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
+    """FORCE_SCALE (integral / (count T))^(1/p) [N] of a recorded power integral."""
+    if _concrete(p) and float(p) != POWER:
+        raise ValueError(
+            f"The solution records power means of order p = {POWER} only; got p = {p}."
+        )
+    total, duration = _integral(sol, column, t_min, t_max)
+    return FORCE_SCALE * (total / (count * duration)) ** (1.0 / POWER)
+
+
+def _require_bearing(sol: Solution):
     if sol.bearing_force is None:
         raise ValueError("This solution has no bearing joint.")
-    f = sol.bearing_force
-    return jnp.sqrt(jnp.sum(f * f, axis=-1) + 1e-30)
 
 
 def peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest load on any ball [N] in the window."""
-    if sol.ball_loads is None:
-        raise ValueError("This solution has no bearing joint.")
-    return _peak(sol.ball_loads, window(sol.ts, t_min, t_max))
+    """Largest load on any ball [N] in the window, over each solver step's end and Gauss points
+    (exact there; `SegmentStats`)."""
+    _require_bearing(sol)
+    return _peak(sol, PEAK_BALL_LOAD, t_min, t_max)
 
 
 def peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window."""
-    return _peak(_bearing_magnitude(sol), window(sol.ts, t_min, t_max))
+    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window, over each
+    solver step's end and Gauss points (exact there; `SegmentStats`)."""
+    _require_bearing(sol)
+    return _peak(sol, PEAK_BEARING_FORCE, t_min, t_max)
 
 
 def rms_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Root-mean-square of |F| over the window (time-weighted) [N]. Smooth."""
-    w = window(sol.ts, t_min, t_max)
-    f = sol.bearing_force
-    return jnp.sqrt(jnp.sum(w * jnp.sum(f * f, axis=-1)) / jnp.sum(w))
+    """Root-mean-square of |F| over the window (time-weighted) [N]: Gauss–Legendre quadrature of
+    each step's interpolant (exact for integrands of degree <= 5 over a step). Smooth."""
+    _require_bearing(sol)
+    total, duration = _integral(sol, INT_BEARING_FORCE_SQUARED, t_min, t_max)
+    return jnp.sqrt(total / duration)
 
 
 def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest normal impact force [N] in the window (sample it finely: impacts last ~100 µs)."""
-    return _peak(sol.contact_force, window(sol.ts, t_min, t_max))
+    """Largest normal impact force [N] in the window, over each solver step's end and Gauss
+    points (exact there; `SegmentStats`), so independent of the output times."""
+    return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
 
 
 def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=TARGET_X) -> jax.Array:
-    """Largest |q_c(t) - q_c(0)| [m] of one coordinate in the window (default: the xu2014 target's x)."""
-    return _peak(jnp.abs(sol.q[:, coordinate] - sol.q[0, coordinate]), window(sol.ts, t_min, t_max))
+    """Largest |q_c(t) - q_c(t0)| [m] of one coordinate in the window (default: the xu2014
+    target's x), over each solver step's end and Gauss points (exact there; `SegmentStats`)."""
+    return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of all ball loads over the window [N]: a differentiable stand-in
-    for `peak_ball_load` (below it; closer as p grows)."""
-    return _power_mean(sol.ball_loads, window(sol.ts, t_min, t_max), p)
+    """Power mean of order p of all ball loads over the window and the balls [N]: a
+    differentiable stand-in for `peak_ball_load` (below it; closer as p grows). Gauss–Legendre
+    quadrature of each step's interpolant; p must be `simulate.POWER` (16)."""
+    _require_bearing(sol)
+    n_balls = sol.ball_loads.shape[-1]
+    return _power_mean(sol, INT_BALL_LOAD_POWER, t_min, t_max, p, n_balls)
 
 
 def smooth_peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak."""
-    return _power_mean(_bearing_magnitude(sol), window(sol.ts, t_min, t_max), p)
+    """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak.
+    Gauss–Legendre quadrature of each step's interpolant; p must be `simulate.POWER` (16)."""
+    _require_bearing(sol)
+    return _power_mean(sol, INT_BEARING_FORCE_POWER, t_min, t_max, p)
 
 
 def smooth_peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of the impact force over the window [N]."""
-    return _power_mean(sol.contact_force, window(sol.ts, t_min, t_max), p)
+    """Power mean of order p of the impact force over the window [N]. Gauss–Legendre quadrature
+    of each step's interpolant; p must be `simulate.POWER` (16)."""
+    return _power_mean(sol, INT_CONTACT_FORCE_POWER, t_min, t_max, p)
 
 
 STANDARD = {

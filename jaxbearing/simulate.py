@@ -12,10 +12,15 @@ of the solution include the jump of every switch through the event times' implic
 intervals of [t0, t1], so that the members of a vmapped batch stay aligned in time: a batch runs
 each segment until its slowest member is done, and without the cells a member that has had one
 contact event more than another would integrate an unrelated span beside it (measured: a batch
-of 8 clearances of the paper's case then cost as much as 8 single runs). Segments run in a
-`lax.scan` of fixed length ``time_cells + max_segments`` (reverse- and forward-mode
-differentiable, vmappable); finished members idle in zero-length solves. A run that needs more
-segments than that fails loudly.
+of 8 clearances of the paper's case then cost as much as 8 single runs). They end as well at
+`WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
+run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
+forward-mode differentiable, vmappable); finished members idle in zero-length solves. A run that
+needs more segments than that fails loudly.
+
+While it integrates, the solver records per segment the peaks and integrals that
+`jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the step's
+interpolant, so that the metrics do not depend on the output times.
 """
 
 from __future__ import annotations
@@ -43,6 +48,16 @@ EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
+WINDOW_START = 0.04  # [s] start of the metrics' default window (`metrics.T_MIN`); always a stop
+POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
+FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
+# 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
+GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
+GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+# columns of SegmentStats.peaks and .integrals
+PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1, 2, 3
+(INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER,
+ INT_TIME) = range(5)
 
 
 class RESULTS(diffrax.RESULTS):
@@ -62,7 +77,7 @@ class Contacts(eqx.Module):
     """Onsets of impact contacts, one slot per segment (padded; read ``valid``).
 
     Fields:
-        time: onset times [s], NaN in unused slots, (time_cells + max_segments,).
+        time: onset times [s], NaN in unused slots, (number of segment slots,).
         approach_speed: penetration rate at onset, delta_dot^(-) of Eq. 23 [m/s].
         index: which contact of ``model.contacts`` started, -1 in unused slots.
         valid: True where the slot holds an onset.
@@ -77,6 +92,37 @@ class Contacts(eqx.Module):
     def count(self) -> jax.Array:
         """Number of contact onsets."""
         return jnp.sum(self.valid, axis=-1)
+
+
+class SegmentStats(eqx.Module):
+    """Peaks and integrals over each segment of the solve, one slot per segment (padded; read
+    ``valid``), taken from the solution itself: every accepted solver step and its interpolant
+    (`_Recording`), not from the output times. `jaxbearing.metrics` combines them over a window.
+
+    Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
+    Gauss–Legendre quadrature over the step; the last step of a segment that ends at an event
+    counts only up to the event. Peaks are therefore the maxima over those points (and the
+    segment's start): exact there, and low by at most the interpolant's rise between points a
+    quarter of a step apart. Integrals are exact for integrands that are polynomials of degree
+    <= 5 over each step.
+
+    Fields (S = number of segment slots):
+        t_start, t_end: (S,) [s] of each segment, NaN in unused slots.
+        peaks: (S, 3 + n_coordinates), the maxima over the segment of: the largest ball load of
+            the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N], the
+            normal force of the first impact contact [N], then |q_c - q0_c| of each coordinate
+            [m or rad]; 0 for an element the model lacks. Columns ``PEAK_*``.
+        integrals: (S, 5), the integrals over the segment of: |F|^2 [N^2 s], the sum over balls
+            of (F_r / FORCE_SCALE)^POWER [s], (|F| / FORCE_SCALE)^POWER [s], (contact force /
+            FORCE_SCALE)^POWER [s], and 1 (the segment's duration) [s]. Columns ``INT_*``.
+        valid: (S,) bool, True where the slot holds a segment.
+    """
+
+    t_start: jax.Array
+    t_end: jax.Array
+    peaks: jax.Array
+    integrals: jax.Array
+    valid: jax.Array
 
 
 class Solution(eqx.Module):
@@ -95,6 +141,7 @@ class Solution(eqx.Module):
         approach_speed: (T, n_contacts) [m/s], approach speed in force at each output time.
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         contacts: `Contacts`, the onsets.
+        segments: `SegmentStats`, peaks and integrals of each segment (what the metrics read).
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
         num_steps, num_rejected_steps: solver steps over all segments.
@@ -113,6 +160,7 @@ class Solution(eqx.Module):
     approach_speed: jax.Array
     drift: jax.Array
     contacts: Contacts
+    segments: SegmentStats
     result: RESULTS
     t_final: jax.Array
     num_steps: jax.Array
@@ -228,6 +276,7 @@ def simulate(
     max_steps: int = 200_000,
     max_segments: int | None = None,
     time_cells: int = 64,
+    window_edges: tuple = (),
     output_block: int | None = None,
     throw: bool = True,
     progress: str | None = None,
@@ -252,6 +301,10 @@ def simulate(
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver (measured: about 1.3 steps).
+        window_edges: further times [s] at which segments end, so that `jaxbearing.metrics`
+            can use them as window edges (a metric over a window needs its edges to be segment
+            ends; `WINDOW_START`, the default window's start, always is). A tuple: its length
+            is part of the compiled solve.
         output_block: output times one segment may write; default `default_output_block`, the most
             that fall in one time cell, so that each output time costs one write.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
@@ -285,6 +338,8 @@ def simulate(
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
+    solver = _with_root_tolerances(solver, stepsize_controller)
+    stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
     sol = _with_adjoint(
         adjoint,
         _simulate,
@@ -297,6 +352,7 @@ def simulate(
         max_steps,
         max_segments,
         time_cells,
+        stops,
         output_block,
         progress,
     )
@@ -447,6 +503,168 @@ def _accelerations(model, t, q, qd, approach_speeds, engaged):
     return model.accelerations(t, q, qd, approach_speeds, engaged)
 
 
+def _forces(model, t, q, qd, approach_speeds, engaged):
+    """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
+    and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
+    ``penetration`` [m] of the first impact contact (each only where the model has one)."""
+    out = {}
+    if model.bearings:
+        first = model.engaged_by_bearing(engaged)[0]
+        loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
+        out.update(ball_loads=loads, cage=cage, bearing_force=bearing_law.resultant(loads, cage))
+    if model.contacts:
+        out["contact_force"] = model.contacts[0].forces(t, q, qd, approach_speeds[0])[0]
+        out["penetration"] = model.contacts[0].gap(q, qd)[0]
+    return out
+
+
+def _quantities(model, t, y, args):
+    """The peak candidates (3 + n,) and the integrands (5,) of `SegmentStats` at one state."""
+    approach, _, engaged = args
+    n = model.n_coordinates
+    q, qd = y[:n], y[n:]
+    f = _forces(model, t, q, qd, approach, engaged)
+    zero = jnp.zeros((), y.dtype)
+    loads = f.get("ball_loads", zero[None])
+    resultant = f.get("bearing_force", jnp.zeros(2, y.dtype))
+    squared = jnp.sum(resultant * resultant)
+    magnitude = jnp.sqrt(squared + 1e-30)
+    contact = f.get("contact_force", zero)
+    peaks = jnp.concatenate(
+        [jnp.stack([jnp.max(loads), magnitude, contact]), jnp.abs(q - model.q0)]
+    )
+    integrands = jnp.stack(
+        [
+            squared,
+            jnp.sum((loads / FORCE_SCALE) ** POWER),
+            (magnitude / FORCE_SCALE) ** POWER,
+            (contact / FORCE_SCALE) ** POWER,
+            jnp.ones_like(t),
+        ]
+    )
+    return peaks, integrands
+
+
+def _step_stats(model, interpolation, t_a, t_b, args):
+    """Peaks and integrals over [t_a, t_b] of one step's interpolant: the values at t_b and at
+    the 3 Gauss–Legendre points, and their Gauss–Legendre quadrature."""
+    times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
+    ys = jax.vmap(interpolation.evaluate)(times)
+    peaks, integrands = jax.vmap(lambda t, y: _quantities(model, t, y, args))(times, ys)
+    integral = (t_b - t_a) * (jnp.asarray(GAUSS_WEIGHTS) @ integrands[:3])
+    return jnp.max(peaks, axis=0), integral
+
+
+class _Recording(diffrax.AbstractAdaptiveSolver):
+    """The user's solver, plus the `SegmentStats` of the steps it takes.
+
+    State: (inner state, (peaks, integrals) over all accepted steps but the latest, the latest
+    accepted step (t0, t1, dense_info)). Each step adds its predecessor's stats: diffrax keeps
+    the old state when it rejects a step, so only accepted steps count, and the latest one is
+    left open, so that `_close` counts it up to the end of the segment, which lies before its t1
+    when the segment ends at an event. The state starts with a placeholder step of length zero
+    at y0 (values y0, slopes zero), which counts the segment's initial state.
+    """
+
+    solver: diffrax.AbstractSolver
+    model: Mechanism
+
+    @property
+    def term_structure(self):
+        return self.solver.term_structure
+
+    @property
+    def interpolation_cls(self):  # pyright: ignore
+        return self.solver.interpolation_cls
+
+    @property
+    def term_compatible_contr_kwargs(self):
+        return self.solver.term_compatible_contr_kwargs
+
+    def order(self, terms):
+        return self.solver.order(terms)
+
+    def error_order(self, terms):
+        return self.solver.error_order(terms)
+
+    def init(self, terms, t0, t1, y0, args):
+        inner = self.solver.init(terms, t0, t1, y0, args)
+        _, _, dense_struct, _, _ = eqx.filter_eval_shape(
+            self.solver.step, terms, t0, t1, y0, args, inner, False
+        )
+        dense = jax.tree_util.tree_map(
+            lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
+        )
+        k = 3 + self.model.n_coordinates
+        stats = (jnp.full(k, -jnp.inf, y0.dtype), jnp.zeros(5, y0.dtype))
+        t0 = jnp.asarray(t0, y0.dtype)
+        return inner, stats, (t0, t0, dense)
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        inner, stats, last = solver_state
+        y1, error, dense, inner, result = self.solver.step(
+            terms, t0, t1, y0, args, inner, made_jump
+        )
+        stats = _add(stats, _close(self.model, self.solver, last, last[1], args))
+        t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
+        return y1, error, dense, (inner, stats, (t0, t1, dense)), result
+
+    def func(self, terms, t0, y0, args):
+        return self.solver.func(terms, t0, y0, args)
+
+
+def _close(model, solver, last, t_end, args):
+    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]."""
+    t_a, t_b, dense = last
+    return _step_stats(model, solver.interpolation_cls(t0=t_a, t1=t_b, **dense), t_a, t_end, args)
+
+
+def _add(stats, more):
+    return jnp.maximum(stats[0], more[0]), stats[1] + more[1]
+
+
+def _with_root_tolerances(solver, controller):
+    """An implicit solver whose root finder takes the step controller's tolerances where it asks
+    for them (`diffrax.with_stepsize_controller_tols`), as `diffeqsolve` does for an unwrapped
+    solver."""
+    if not (
+        isinstance(solver, diffrax.AbstractImplicitSolver)
+        and isinstance(controller, diffrax.AbstractAdaptiveStepSizeController)
+    ):
+        return solver
+    names = [
+        a for a in ("rtol", "atol", "norm")
+        if getattr(solver.root_finder, a) is diffrax._root_finder.use_stepsize_tol
+    ]
+    if not names:
+        return solver
+    return eqx.tree_at(
+        lambda s: tuple(getattr(s.root_finder, a) for a in names),
+        solver,
+        tuple(getattr(controller, a) for a in names),
+    )
+
+
+def _stops(t0, t1, time_cells, extra):
+    """Times at which segments end, increasing: the ends of the ``time_cells`` equal cells of
+    [t0, t1] and the ``extra`` times inside (t0, t1). A static count: the extra times outside,
+    and a stop equal to its predecessor, move to t1, where the loop finishes."""
+    cells = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
+    extra = jnp.where((extra > t0) & (extra < t1), extra, t1)
+    stops = jnp.sort(jnp.concatenate([cells, extra]))
+    repeated = jnp.concatenate([jnp.zeros(1, bool), stops[1:] == stops[:-1]])
+    return jnp.sort(jnp.where(repeated, t1, stops))
+
+
+def _for_adjoint(solver, adjoint):
+    """A Runge–Kutta solver whose stage loop forward mode can differentiate ("lax"), as
+    `diffeqsolve` chooses it for an unwrapped solver under `diffrax.ForwardMode`."""
+    runge_kutta = isinstance(solver, diffrax.AbstractRungeKutta)
+    if not isinstance(adjoint, diffrax.ForwardMode) or not runge_kutta or solver.scan_kind is not None:
+        return solver
+    return eqx.tree_at(lambda s: s.scan_kind, solver, "lax", is_leaf=lambda x: x is None)
+
+
 def _concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 
@@ -472,7 +690,8 @@ class _Carry(NamedTuple):
 
 @jit
 def _simulate(
-    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, block, progress, adjoint
+    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, extra_stops, block,
+    progress, adjoint,
 ):
     rules = model.violations()
     rules.append(
@@ -518,28 +737,32 @@ def _simulate(
             direction=True,
         )
     term = diffrax.ODETerm(vector_field)
-    cell_ends = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
+    recording = _Recording(_for_adjoint(solver, adjoint), model)
+    stops = _stops(t0, t1, time_cells, extra_stops)
+    n_stops = stops.shape[0]
 
     def segment(c: _Carry, slot):
-        # finished members (reached t1, or failed: then t is set to t1 with the cell where it
-        # failed) idle in zero-length solves, never backwards from t1 to their cell's end
-        t_stop = jnp.where(c.done, c.t, cell_ends[c.cell])
+        # finished members (reached t1, or failed: then t is set to t1 with the stop where it
+        # failed) idle in zero-length solves, never backwards from t1 to their stop
+        t_stop = jnp.where(c.done, c.t, stops[c.cell])
         k, save_ts = _block(ts, c.t, t_stop, c.done, block)
         meter = (
             diffrax.NoProgressMeter()
             if progress is None
             else _Progress(t_start=c.t, t_stop=t_stop, t0=t0, t1=t1, label=progress)
         )
+        args = (c.approach, c.in_contact, c.engaged)
         sol = diffrax.diffeqsolve(
             term,
-            solver,
+            recording,
             c.t,
             t_stop,
             jnp.minimum(c.dt, t_stop - c.t),
             c.y,
-            args=(c.approach, c.in_contact, c.engaged),
+            args=args,
             saveat=diffrax.SaveAt(
-                subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)]
+                subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)],
+                solver_state=True,
             ),
             stepsize_controller=controller,
             event=event,
@@ -552,6 +775,9 @@ def _simulate(
         t_end, y_end = t_end[0], y_end[0]
         ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
         hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
+        # stats of the segment: its accepted steps, the last one only up to t_end (an event)
+        _, stats, last = sol.solver_state
+        peaks, integrals = _add(stats, _close(model, solver, last, t_end, args))
         # outputs of this segment: its block's times in [t_start, t_end], each written once
         mine = save_ts <= t_end  # False for NaN
         out_y = _write(c.out_y, k, ys, mine)
@@ -583,7 +809,7 @@ def _simulate(
         rejected = c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0))
         t_reached = jnp.where(c.done, c.t, t_end)
         cell_done = ok & ~hit
-        finished = c.done | ~ok | (cell_done & (c.cell == time_cells - 1))  # reached t1, or failed
+        finished = c.done | ~ok | (cell_done & ((c.cell == n_stops - 1) | (t_stop >= t1)))
         # the next segment starts with the mean accepted step of this one (no step-size search;
         # no gradient through the step sizes, as in diffrax's controllers)
         accepted = sol.stats["num_accepted_steps"]
@@ -604,7 +830,13 @@ def _simulate(
             steps=steps,
             rejected=rejected,
         )
-        return carry, record + (t_reached, ~c.done)
+        segment_record = (
+            jnp.where(c.done, jnp.nan, c.t),
+            jnp.where(c.done, jnp.nan, t_reached),
+            jnp.where(c.done, 0.0, peaks),
+            jnp.where(c.done, 0.0, integrals),
+        )
+        return carry, record + (t_reached, ~c.done) + segment_record
 
     init = _Carry(
         t=t0,
@@ -622,8 +854,8 @@ def _simulate(
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
     )
-    final, records = jax.lax.scan(segment, init, jnp.arange(time_cells + max_segments))
-    onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
+    final, records = jax.lax.scan(segment, init, jnp.arange(n_stops + max_segments))
+    onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
     return _outputs(
@@ -633,6 +865,7 @@ def _simulate(
         final.out_approach[:T],
         final.out_engaged[:T],
         Contacts(onset_t, onset_v, onset_i, onset_valid),
+        SegmentStats(*segment_stats, used),
         result,
         t_final,
         final.steps,
@@ -641,7 +874,9 @@ def _simulate(
     )
 
 
-def _outputs(model, ts, ys, approach, engaged, contacts, result, t_final, steps, rejected, n_used):
+def _outputs(
+    model, ts, ys, approach, engaged, contacts, segments, result, t_final, steps, rejected, n_used
+):
     n = model.n_coordinates
     q, qd = ys[:, :n], ys[:, n:]
     valid = jnp.isfinite(ys).all(axis=1)
@@ -651,16 +886,7 @@ def _outputs(model, ts, ys, approach, engaged, contacts, result, t_final, steps,
     def at(t, q_, qd_, a_, e_):
         qdd = _accelerations(model, t, q_, qd_, a_, e_)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
-        out = {"qdd": qdd, "drift": drift}
-        if model.bearings:
-            joint = model.bearings[0]
-            first = model.engaged_by_bearing(e_)[0]
-            loads, cage = joint.ball_loads(t, q_, qd_, model.q0, model.qd0, first)
-            out.update(ball_loads=loads, cage=cage, bearing_force=bearing_law.resultant(loads, cage))
-        if model.contacts:
-            out["contact_force"] = model.contacts[0].forces(t, q_, qd_, a_[0])[0]
-            out["penetration"] = model.contacts[0].gap(q_, qd_)[0]
-        return out
+        return {"qdd": qdd, "drift": drift, **_forces(model, t, q_, qd_, a_, e_)}
 
     # in batches: a vmap over all T output times streams every intermediate through memory
     o = jax.lax.map(lambda x: at(*x), (ts, safe_q, safe_qd, approach, engaged), batch_size=OUTPUT_BATCH)
@@ -680,6 +906,7 @@ def _outputs(model, ts, ys, approach, engaged, contacts, result, t_final, steps,
         approach_speed=approach,
         drift=o["drift"],
         contacts=contacts,
+        segments=segments,
         result=result,
         t_final=t_final,
         num_steps=steps,

@@ -315,7 +315,7 @@ def _fake_solution(model, e0, omega=20 * np.pi, samples=401):
     return jb.Solution(
         ts=jnp.asarray(ts), q=jnp.asarray(q), qd=jnp.asarray(qd), qdd=None, ball_loads=loads,
         bearing_force=force, cage_angle=jnp.asarray(cage), contact_force=None, penetration=None,
-        approach_speed=None, drift=None, contacts=None, result=None, t_final=None, num_steps=None,
+        approach_speed=None, drift=None, contacts=None, segments=None, result=None, t_final=None, num_steps=None,
         num_rejected_steps=None, num_segments=None,
     )  # fmt: skip
 

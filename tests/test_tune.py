@@ -18,7 +18,7 @@ def rotor_model(clearance=20e-6, stiffness=5e9, damping=200.0):
 
 
 ROTOR_TS = jnp.linspace(0.0, 0.02, 201)
-ROTOR_KW = dict(rtol=1e-10, atol=1e-13)
+ROTOR_KW = dict(rtol=1e-10, atol=1e-13, window_edges=(0.005,))  # the metric starts at 0.005 s
 NAMES = ["bearing.clearance", "bearing.stiffness", "bearing.damping"]
 
 
@@ -44,9 +44,10 @@ def test_forward_and_reverse_gradients_match_finite_differences():
     # the adaptive step sequence amplifies rounding to ~1e-8 of the value (measured 4e-8)
     assert float(value_f) == pytest.approx(float(value_r), rel=1e-6)
     for name in NAMES:
-        # central differences with a 1e-4 relative step at rtol 1e-10: truncation ~1e-8,
-        # step-sequence noise ~1e-10/1e-4 relative; measured within 5e-4 for both modes
-        fd = central_difference(model, name, 1e-4)
+        # central differences with a 1e-3 relative step at rtol 1e-10: at 1e-4 the step-sequence
+        # noise reaches 1e-3 (measured for the stiffness: 1.5e-3, while steps of 1e-2 and 1e-3
+        # agree within 7e-5 and the forward derivative lies within 1.5e-4 of them)
+        fd = central_difference(model, name, 1e-3)
         assert float(grad_f[name]) == pytest.approx(fd, rel=1e-3), name
         assert float(grad_r[name]) == pytest.approx(fd, rel=1e-3), name
 
