@@ -49,6 +49,11 @@ def as_float(value, name: str, unit: str) -> jax.Array:
     )
 
 
+def as_floats(*specs) -> tuple[jax.Array, ...]:
+    """`as_float` of each ``(value, name, unit)``."""
+    return tuple(as_float(value, name, unit) for value, name, unit in specs)
+
+
 def _is_concrete(x) -> bool:
     return not isinstance(x, jax.core.Tracer)
 

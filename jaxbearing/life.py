@@ -276,15 +276,12 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
     Example: a 6205 (Z = 9, D_w = 7.938 mm, D_pw = 39.04 mm) gives 14.0 kN, the catalogue
     value; the paper's SKF 98205 (8 balls of 8.7 mm on 37.9 mm) 15.14 kN.
     """
-    z, d, dm, alpha, bm = (
-        _checks.as_float(v, name, unit)
-        for v, name, unit in (
-            (n_balls, "n_balls", "-"),
-            (ball_diameter, "ball_diameter", "m"),
-            (pitch_diameter, "pitch_diameter", "m"),
-            (contact_angle, "contact_angle", "rad"),
-            (b_m, "b_m", "-"),
-        )
+    z, d, dm, alpha, bm = _checks.as_floats(
+        (n_balls, "n_balls", "-"),
+        (ball_diameter, "ball_diameter", "m"),
+        (pitch_diameter, "pitch_diameter", "m"),
+        (contact_angle, "contact_angle", "rad"),
+        (b_m, "b_m", "-"),
     )
     _checks.raise_if_concrete(_geometry_rules(z, d, dm, alpha) + [_checks.positive("b_m", bm, "-")])
     load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
@@ -464,18 +461,15 @@ def ball_race_load_ratings(
             1 for plain Lundberg–Palmgren). With both defaults and f_i = f_o = 0.52 the ring
             lives combine to the catalogue rating of `dynamic_load_rating`.
     """
-    z, d, dm, fi, fo, alpha, bm, red = (
-        _checks.as_float(v, name, unit)
-        for v, name, unit in (
-            (n_balls, "n_balls", "-"),
-            (ball_diameter, "ball_diameter", "m"),
-            (pitch_diameter, "pitch_diameter", "m"),
-            (groove_inner, "groove_inner", "-"),
-            (groove_outer, "groove_outer", "-"),
-            (contact_angle, "contact_angle", "rad"),
-            (b_m, "b_m", "-"),
-            (reduction, "reduction", "-"),
-        )
+    z, d, dm, fi, fo, alpha, bm, red = _checks.as_floats(
+        (n_balls, "n_balls", "-"),
+        (ball_diameter, "ball_diameter", "m"),
+        (pitch_diameter, "pitch_diameter", "m"),
+        (groove_inner, "groove_inner", "-"),
+        (groove_outer, "groove_outer", "-"),
+        (contact_angle, "contact_angle", "rad"),
+        (b_m, "b_m", "-"),
+        (reduction, "reduction", "-"),
     )
     _checks.raise_if_concrete(
         _geometry_rules(z, d, dm, alpha)

@@ -220,15 +220,12 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
     Returns:
         (sum_rho_inner [1/m], F_inner [-], sum_rho_outer [1/m], F_outer [-]).
     """
-    args = tuple(
-        _checks.as_float(v, name, unit)
-        for v, name, unit in (
-            (ball_diameter, "ball_diameter", "m"),
-            (pitch_diameter, "pitch_diameter", "m"),
-            (groove_inner, "groove_inner", "-"),
-            (groove_outer, "groove_outer", "-"),
-            (contact_angle, "contact_angle", "rad"),
-        )
+    args = tuple_checks.as_floats(
+        (ball_diameter, "ball_diameter", "m"),
+        (pitch_diameter, "pitch_diameter", "m"),
+        (groove_inner, "groove_inner", "-"),
+        (groove_outer, "groove_outer", "-"),
+        (contact_angle, "contact_angle", "rad"),
     )
     _checks.raise_if_concrete(_geometry_rules(*args))
     return _curvature_sums(*args)
@@ -425,17 +422,14 @@ def bearing_stiffness(
     Example: SKF 98205 (D = 8.7 mm, d_m = 37.9 mm, steel) with f_i = 0.5219, f_o = 0.5194 gives
     K_i = 2.569e10, K_o = 2.861e10, K_b = 9.576e9 N/m^1.5 (paper: 2.57e10, 2.86e10, 9.57e9).
     """
-    d, dm, fi, fo, e, nu, alpha = (
-        _checks.as_float(v, name, unit)
-        for v, name, unit in (
-            (ball_diameter, "ball_diameter", "m"),
-            (pitch_diameter, "pitch_diameter", "m"),
-            (groove_inner, "groove_inner", "-"),
-            (groove_outer, "groove_outer", "-"),
-            (youngs_modulus, "youngs_modulus", "Pa"),
-            (poisson_ratio, "poisson_ratio", "-"),
-            (contact_angle, "contact_angle", "rad"),
-        )
+    d, dm, fi, fo, e, nu, alpha = _checks.as_floats(
+        (ball_diameter, "ball_diameter", "m"),
+        (pitch_diameter, "pitch_diameter", "m"),
+        (groove_inner, "groove_inner", "-"),
+        (groove_outer, "groove_outer", "-"),
+        (youngs_modulus, "youngs_modulus", "Pa"),
+        (poisson_ratio, "poisson_ratio", "-"),
+        (contact_angle, "contact_angle", "rad"),
     )
     _checks.raise_if_concrete(
         _geometry_rules(d, dm, fi, fo, alpha)
@@ -462,16 +456,13 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
     """
     youngs_k = youngs_j if youngs_k is None else youngs_k
     poisson_k = poisson_j if poisson_k is None else poisson_k
-    rj, rk, ej, nj, ek, nk = (
-        _checks.as_float(v, name, unit)
-        for v, name, unit in (
-            (radius_j, "radius_j", "m"),
-            (radius_k, "radius_k", "m"),
-            (youngs_j, "youngs_j", "Pa"),
-            (poisson_j, "poisson_j", "-"),
-            (youngs_k, "youngs_k", "Pa"),
-            (poisson_k, "poisson_k", "-"),
-        )
+    rj, rk, ej, nj, ek, nk = _checks.as_floats(
+        (radius_j, "radius_j", "m"),
+        (radius_k, "radius_k", "m"),
+        (youngs_j, "youngs_j", "Pa"),
+        (poisson_j, "poisson_j", "-"),
+        (youngs_k, "youngs_k", "Pa"),
+        (poisson_k, "poisson_k", "-"),
     )
     _checks.raise_if_concrete(
         [_checks.positive("radius_j", rj, "m"), _checks.positive("radius_k", rk, "m")]
