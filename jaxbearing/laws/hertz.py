@@ -220,7 +220,7 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
     Returns:
         (sum_rho_inner [1/m], F_inner [-], sum_rho_outer [1/m], F_outer [-]).
     """
-    args = tuple_checks.as_floats(
+    args = _checks.as_floats(
         (ball_diameter, "ball_diameter", "m"),
         (pitch_diameter, "pitch_diameter", "m"),
         (groove_inner, "groove_inner", "-"),
