@@ -173,9 +173,9 @@ class _Progress(diffrax.AbstractProgressMeter):
 
     Each segment's solve runs [t_start, t_stop]; the meter reports the fraction of [t0, t1]
     reached to the host (`_advance`) at the start of the run and whenever it crosses a
-    multiple of ``every``, so a run costs at most 1/every + 1 callbacks however many segments
-    it has (measured: 0.25 ms each, 12 ms a run). Under vmap it reports the slowest member.
-    Under `jax.grad` the backward pass re-runs parts of the solve and restarts the bar.
+    multiple of ``every``, so a run costs about 1/every + 1 callbacks however many segments it
+    has (a segment that ends at an event may report its last cell once more). Under vmap it
+    reports the slowest member. Under `jax.grad` the backward pass re-runs parts of the solve and restarts the bar.
     """
 
     t_start: jax.Array
@@ -251,12 +251,9 @@ def kvaerno5(newton_rtol=1e-2, newton_atol=1e-5) -> diffrax.Kvaerno5:
     """Kvaerno5, the stiff (ESDIRK) solver, with a loose simplified-Newton iteration.
 
     The step error control (``simulate``'s rtol, atol) still sets the accuracy; a Newton
-    tolerance as tight as the step tolerance makes the iteration fail at every ball engagement
-    (a force kink) and multiplies rejected steps (measured: 4624 steps for 0.01 s of the paper's
-    case at diffrax's default). Over 0.2 s of the paper's case with impact (rtol 1e-8): 15 112
-    steps (3 624 rejected) in 6.2 s at Newton tolerances 1e-4/1e-7, 11 045 (2 748) in 4.1 s at
-    these; against a run at 1000x tighter tolerances both stay within 7e-8 m in position and
-    0.11 N in ball load (benchmarks/run.py checks this).
+    tolerance as tight as the step tolerance makes the iteration fail at sharp force changes and
+    multiplies rejected steps. benchmarks/run.py checks its accuracy against a run at 1000x
+    tighter tolerances; README's benchmark table gives its steps and cost.
     """
     return diffrax.Kvaerno5(
         root_finder=diffrax.VeryChord(rtol=newton_rtol, atol=newton_atol, norm=optx.max_norm)
@@ -673,7 +670,7 @@ class _Carry(NamedTuple):
     """State of the segment loop between two segments."""
 
     t: jax.Array  # start of the next segment [s]
-    cell: jax.Array  # index of the time cell it lies in
+    cell: jax.Array  # index of the next stop (time-cell end or window edge) it runs to
     dt: jax.Array  # its first step [s]
     y: jax.Array  # state [q, qd] at t
     approach: jax.Array  # (n_contacts,) approach speed of each contact's current contact [m/s]
