@@ -54,8 +54,9 @@ def as_floats(*specs) -> tuple[jax.Array, ...]:
     return tuple(as_float(value, name, unit) for value, name, unit in specs)
 
 
-def _is_concrete(x) -> bool:
-    return not isinstance(x, jax.core.Tracer)
+def is_concrete(*xs) -> bool:
+    """Whether every one of ``xs`` is a concrete value (known in Python), not a JAX tracer."""
+    return not any(isinstance(x, jax.core.Tracer) for x in xs)
 
 
 def _describe(value) -> str:
@@ -70,7 +71,7 @@ def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
     enforced later by `enforce`.
     """
     for is_wrong, message, value in violations:
-        if _is_concrete(is_wrong) and _is_concrete(value) and bool(np.any(np.asarray(is_wrong))):
+        if is_concrete(is_wrong, value) and bool(np.any(np.asarray(is_wrong))):
             raise ValueError(f"{message}; got {_describe(value)}.")
 
 
