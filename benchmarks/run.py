@@ -1,7 +1,9 @@
 """The performance figures of jaxbearing, measured in one run on this machine (issue 5).
 
     python benchmarks/run.py [--repeats 5] [--json benchmarks/results.json] [--quick]
-                             [--only single,gradient,scipy,sweep]
+                             [--only single,outputs,gradient,scipy,sweep]
+    python benchmarks/run.py --only gpu [--gpu-parts single,gradient,sweep,variants]
+                             [--gpu-batches 256,1024,4096,16384,65536]
 
 What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
 
@@ -17,6 +19,15 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
 - sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
   restitution on 1 and on 2 CPU devices;
 - peak memory (maximum resident set size) of each measurement.
+
+The group ``gpu`` (run alone, ``--only gpu``; results in ``results_gpu.json`` with the device's
+name) measures on JAX's default accelerator: one simulation and the 3-parameter gradient, each
+with XLA's defaults and one run with CUDA-graph loops (`COMMAND_BUFFERS`); sweep throughput of
+one chunk of all points against batch size (`GPU_BATCHES`, members with 2 output times: the
+metrics are exact without samples) with the device memory per member; at 4096 points the same
+sweep with 2001 output times and with CUDA-graph loops. Sweeps above ``--gpu-repeat-max`` points
+are timed on their first call (compile included), the others on a second call. The reference runs
+stay on the CPU. Every row carries the same accuracy checks as on the CPU.
 
 Accuracy: every timed run is compared with a reference run of the default solver at
 tolerances 1000x tighter (rtol 1e-11, atol 1e-13): positions (x, y of every body) within 1e-7 m at
@@ -67,6 +78,11 @@ GRADIENT_NAMES = ("bearing.clearance", "impact.restitution", "bearing.stiffness"
 GRADIENT_FORCES = ("paper", "smooth")  # both give exact derivatives (docs/model.md)
 SWEEP_CLEARANCES = (20e-6, 80e-6)  # [m] range of the sweep grid
 SWEEP_RESTITUTIONS = (0.5, 0.95)
+SWEEP_CORNER = {"bearing.clearance": SWEEP_CLEARANCES[1], "impact.restitution": SWEEP_RESTITUTIONS[1]}
+SWEEP_CHECKED = ("peak_ball_load", "peak_bearing_force")  # metrics checked at the grid's corner
+GPU_BATCHES = (256, 1024, 4096, 16_384, 65_536)  # sweep points in one chunk on one GPU
+GPU_SWEEP_TS = 2  # output times of a GPU sweep member: the metrics are exact without samples
+COMMAND_BUFFERS = "--xla_gpu_enable_command_buffer=+WHILE,+CONDITIONAL"  # CUDA graphs for loops
 
 
 # -- the child processes ----------------------------------------------------------------------
@@ -86,6 +102,11 @@ def _solver(name):
 
     _, jb = _jax()
     return {"default": None, "tsit5": diffrax.Tsit5(), "dopri5": diffrax.Dopri5(), "kvaerno5": jb.kvaerno5()}[name]
+
+
+def _device_kind():
+    jax, _ = _jax()
+    return jax.devices()[0].device_kind
 
 
 def _timed(fn):
@@ -117,6 +138,12 @@ def _reference(args):
         out[f"{force}_ball_loads"] = np.asarray(sol.ball_loads)
         out[f"{force}_onsets"] = np.asarray(sol.contacts.time)[np.asarray(sol.contacts.valid)]
         out[f"{force}_steps"] = int(sol.num_steps)
+    corner = jb.simulate(
+        jb.paths.replace(jb.cases.xu2014(impact=True), SWEEP_CORNER), args.t1, _ts(args.t1),
+        rtol=RTOL * REFERENCE_FACTOR, atol=ATOL * REFERENCE_FACTOR, max_steps=2_000_000,
+    )
+    for name in SWEEP_CHECKED:
+        out[f"corner_{name}"] = float(jb.metrics.STANDARD[name](corner))
     np.savez(args.reference, **out)
     return {"steps": {f: int(out[f"{f}_steps"]) for f in ("paper", "smooth")}}
 
@@ -168,6 +195,7 @@ def _single(args):
     sol, first = _timed(run)
     wall = _median_wall(run, args.repeats)
     row = dict(
+        device_kind=_device_kind(),
         wall_s=wall,
         compile_s=first - wall,
         steps=int(sol.num_steps),
@@ -198,6 +226,7 @@ def _gradient(args):
     grad, first_g = _timed(lambda: gradient(x0))
     wall_g = _median_wall(lambda: gradient(x0), args.repeats)
     row = dict(
+        device_kind=_device_kind(),
         forward_s=wall_f,
         gradient_s=wall_g,
         ratio=wall_g / wall_f,
@@ -213,7 +242,9 @@ def _gradient(args):
 
 
 def _sweep(args):
-    """Throughput of jb.sweep over an n x n grid, after a first call that compiles."""
+    """Throughput of jb.sweep over an n x n grid, one chunk of ``chunk_size`` points per device:
+    a first call (compile + run), then, unless ``--once``, a timed second call; the member at the
+    grid's corner checked against the reference run there."""
     jax, jb = _jax()
     from jaxbearing.sweep import default_chunk_size
 
@@ -222,36 +253,43 @@ def _sweep(args):
         "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, args.sweep_n),
         "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, args.sweep_n),
     }
-    ts = _ts(args.t1)
+    ts = np.linspace(0.0, args.t1, args.sweep_ts)
     kwargs = dict(t1=args.t1, ts=ts, progress=False, chunk_size=args.chunk_size or None)
-    _, first = _timed(lambda: jb.sweep(model, grid, **kwargs).peak_ball_load.values)
     start = time.perf_counter()
     ds = jb.sweep(model, grid, **kwargs)
-    wall = time.perf_counter() - start
-    # the member at the grid's last corner against a reference run there at 1000x tighter
-    # tolerances; 1e-3 relative: at that point the default tolerances' own error in these peaks is
-    # 2.6e-4, and a batch takes other steps than a single run (3e-4 apart)
-    point = {k: float(v[-1]) for k, v in grid.items()}
-    reference = jb.simulate(
-        jb.paths.replace(model, point), args.t1, ts, rtol=RTOL * REFERENCE_FACTOR, atol=ATOL * REFERENCE_FACTOR,
-        max_steps=2_000_000,
-    )
+    first = time.perf_counter() - start
+    wall = None
+    if not args.once:
+        start = time.perf_counter()
+        ds = jb.sweep(model, grid, **kwargs)
+        wall = time.perf_counter() - start
+    # 1e-3 relative: at the corner the default tolerances' own error in these peaks is 2.6e-4,
+    # and a batch takes other steps than a single run (3e-4 apart)
+    reference = np.load(args.reference)
     errors = {
-        name: abs(float(ds[name].sel(point)) - float(fn(reference))) / abs(float(fn(reference)))
-        for name, fn in jb.metrics.STANDARD.items()
-        if name in ("peak_ball_load", "peak_bearing_force")
+        name: abs(float(ds[name].sel(SWEEP_CORNER)) / float(reference[f"corner_{name}"]) - 1.0)
+        for name in SWEEP_CHECKED
     }
-    return dict(
+    points = args.sweep_n**2
+    device = jax.devices()[0]
+    stats = device.memory_stats() or {}
+    row = dict(
         devices=jax.device_count(),
-        points=int(args.sweep_n**2),
+        device_kind=device.device_kind,
+        points=int(points),
+        output_times=int(args.sweep_ts),
         chunk_size=args.chunk_size or default_chunk_size(),
         wall_s=wall,
         first_call_s=first,
-        throughput=args.sweep_n**2 / wall,
+        throughput=None if wall is None else points / wall,
         failed=int(ds.failed.sum()),
         relative_error=errors,
         accurate=bool(max(errors.values()) <= 1e-3 and int(ds.failed.sum()) == 0),
     )
+    if "peak_bytes_in_use" in stats:
+        row["device_peak_MiB"] = stats["peak_bytes_in_use"] / 2**20
+        row["device_MiB_per_member"] = row["device_peak_MiB"] / points
+    return row
 
 
 def _outputs(args):
@@ -295,7 +333,9 @@ def _scipy(args):
     return row
 
 
-GROUPS = ("single", "outputs", "gradient", "scipy", "sweep")
+GROUPS = ("single", "outputs", "gradient", "scipy", "sweep", "gpu")
+CPU_GROUPS = GROUPS[:-1]  # the default; "gpu" runs alone (--only gpu) into results_gpu.json
+GPU_PARTS = ("single", "gradient", "sweep", "variants")
 ITEMS = {
     "reference": _reference,
     "single": _single,
@@ -309,14 +349,22 @@ ITEMS = {
 # -- the parent -------------------------------------------------------------------------------
 
 
-def _child(item, settings, devices=1, **options):
-    """Run one item in a fresh process; its JSON result with the peak memory [MiB]."""
+def _child(item, settings, devices=1, platform="cpu", xla_flags="", **options):
+    """Run one item in a fresh process on ``platform`` ("cpu" with ``devices`` devices, or
+    "gpu": JAX's default accelerator); its JSON result with the peak memory [MiB]."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--item", item]
     for key, value in {**settings, **options}.items():
-        cmd += [f"--{key.replace('_', '-')}", str(value)]
+        if value is True:
+            cmd.append(f"--{key.replace('_', '-')}")
+        elif value is not False:
+            cmd += [f"--{key.replace('_', '-')}", str(value)]
     env = dict(os.environ)
-    env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + f" --xla_force_host_platform_device_count={devices}").strip()
-    env.setdefault("JAX_PLATFORMS", "cpu")
+    if platform == "cpu":
+        xla_flags += f" --xla_force_host_platform_device_count={devices}"
+        env.setdefault("JAX_PLATFORMS", "cpu")
+    else:
+        env.pop("JAX_PLATFORMS", None)
+    env["XLA_FLAGS"] = (env.get("XLA_FLAGS", "") + " " + xla_flags).strip()
     done = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"benchmark item {item} {options} failed:\n{done.stderr[-4000:]}")
@@ -353,6 +401,8 @@ def measure(args, results) -> dict:
         _scipy_rows(args, settings, results)
     if "sweep" in args.only:
         _sweep_rows(args, settings, results)
+    if "gpu" in args.only:
+        _gpu_rows(args, settings, results)
     return results
 
 
@@ -423,6 +473,68 @@ def _sweep_rows(args, settings, results):
         )
 
 
+def _gpu_rows(args, settings, results):
+    """The GPU group: one run and one gradient on JAX's default accelerator, with and without
+    CUDA-graph loops, and sweep throughput against batch size (one chunk of all points)."""
+    gpu = results.setdefault("gpu", {})
+    parts = args.gpu_parts.split(",")
+    flags = {"default": "", "command buffers": COMMAND_BUFFERS}
+    if "single" in parts:
+        gpu["single"] = []
+        print("\nGPU: one simulation after compilation (Tsit5, paper ball force)")
+        for label, xla_flags in flags.items():
+            row = dict(label=label, **_child("single", settings, platform="gpu", xla_flags=xla_flags,
+                                              solver="default", force="paper"))
+            gpu["single"].append(row)
+            _save(args, results)
+            print(
+                f"  {row['device_kind']}, {label:16s} {row['wall_s']:7.3f} s  compile {row['compile_s']:5.1f} s  "
+                f"steps {row['steps']}  pos {row['position_error_m']:.1e} m  load {row['ball_load_error_N']:.3f} N  "
+                f"{_ok(row)}",
+                flush=True,
+            )
+    if "gradient" in parts:
+        row = dict(force="paper", **_child("gradient", settings, platform="gpu", force="paper"))
+        gpu["gradient"] = row
+        _save(args, results)
+        print(
+            f"\nGPU: 3-parameter gradient {row['gradient_s']:.3f} s = {row['ratio']:.2f} x forward "
+            f"({row['forward_s']:.3f} s); compile {row['compile_forward_s']:.1f} / {row['compile_gradient_s']:.1f} s  "
+            f"{_ok(row)}",
+            flush=True,
+        )
+    runs = []
+    if "sweep" in parts:
+        runs += [(batch, GPU_SWEEP_TS, "default") for batch in map(int, args.gpu_batches.split(","))]
+    if "variants" in parts:  # at 4096 points: dense outputs, and CUDA-graph loops
+        runs += [(4096, N_TS, "default"), (4096, GPU_SWEEP_TS, "command buffers")]
+    if runs:
+        gpu.setdefault("sweep", [])
+        print("\nGPU: sweep throughput (one chunk of all points)")
+    for batch, n_ts, label in runs:
+        n = int(round(batch**0.5))
+        row = _child(
+            "sweep", settings, platform="gpu", xla_flags=flags[label], sweep_n=n, chunk_size=n * n,
+            sweep_ts=n_ts, once=n * n > args.gpu_repeat_max,
+        )
+        row["label"] = label
+        gpu["sweep"].append(row)
+        _save(args, results)
+        timed = row["wall_s"] if row["wall_s"] is not None else row["first_call_s"]
+        print(
+            f"  {row['points']:6d} points, {n_ts} output times, {label}: {timed:.1f} s "
+            f"({'second call' if row['wall_s'] is not None else 'first call, compile included'}) = "
+            f"{row['points'] / timed:.0f} simulations/s; {row.get('device_MiB_per_member', 0):.3f} MiB a member "
+            f"on the device  {_ok(row)}",
+            flush=True,
+        )
+
+
+def _save(args, results):
+    """Write what is measured so far (an interrupted run keeps its finished rows)."""
+    Path(args.json).write_text(json.dumps(results, indent=2))
+
+
 def _targets(r) -> dict:
     """Issue 5's targets (of the groups measured), each with the figure and whether it is met."""
     targets = {}
@@ -446,6 +558,9 @@ def _targets(r) -> dict:
         targets[f">= 30x faster than SciPy ({fastest['method']})"] = (ratio, ratio >= 30.0)
     if sweep2:
         targets[">= 20 simulations/s on 2 CPU devices"] = (sweep2["throughput"], sweep2["throughput"] >= 20.0)
+    gpu_rates = [row["throughput"] for row in r.get("gpu", {}).get("sweep", []) if row["throughput"]]
+    if gpu_rates:
+        targets[">= 2000 simulations/s on one GPU"] = (max(gpu_rates), max(gpu_rates) >= 2000.0)
     return {k: dict(measured=v, met=bool(ok)) for k, (v, ok) in targets.items()}
 
 
@@ -459,8 +574,12 @@ def main(argv=None):
     parser.add_argument("--chunk-size", type=int, default=0, help="sweep points per device per chunk (0: the sweep's default)")
     parser.add_argument("--scipy-methods", default=",".join(SCIPY_METHODS))
     parser.add_argument("--max-wall", type=float, default=SCIPY_MAX_WALL)
+    parser.add_argument("--gpu-parts", default=",".join(GPU_PARTS), help="parts of the gpu group to measure")
+    parser.add_argument("--gpu-batches", default=",".join(map(str, GPU_BATCHES)), help="GPU sweep sizes")
+    parser.add_argument("--gpu-repeat-max", type=int, default=4096,
+                        help="GPU sweeps above this many points are timed on their first call only")
     parser.add_argument("--solver-rows", type=int, default=len(SOLVERS))
-    parser.add_argument("--only", default=",".join(GROUPS),
+    parser.add_argument("--only", default=",".join(CPU_GROUPS),
                         help="groups to measure; the others are kept from an existing --json file")
     # child-process options
     parser.add_argument("--item", choices=sorted(ITEMS))
@@ -468,6 +587,8 @@ def main(argv=None):
     parser.add_argument("--solver")
     parser.add_argument("--force")
     parser.add_argument("--method")
+    parser.add_argument("--sweep-ts", type=int, default=N_TS, help="output times of a sweep member")
+    parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
     args = parser.parse_args(argv)
     if args.item:
         row = ITEMS[args.item](args)
@@ -477,13 +598,14 @@ def main(argv=None):
     if args.quick:
         args.t1, args.repeats, args.sweep_n, args.chunk_size = 0.06, 1, 2, 2
         args.scipy_methods, args.solver_rows = "RK45", 1
-    args.json = args.json or str(HERE / ("results_quick.json" if args.quick else "results.json"))
     args.only = args.only.split(",")
+    default_json = "results_gpu.json" if args.only == ["gpu"] else "results.json"
+    args.json = args.json or str(HERE / ("results_quick.json" if args.quick else default_json))
     unknown = sorted(set(args.only) - set(GROUPS))
     if unknown:
         parser.error(f"--only takes {', '.join(GROUPS)}; got {', '.join(unknown)}")
     path = Path(args.json)
-    keep = set(args.only) != set(GROUPS) and path.exists()
+    keep = set(args.only) != set(CPU_GROUPS) and path.exists()
     results = json.loads(path.read_text()) if keep else {}
     with tempfile.TemporaryDirectory() as tmp:
         args.reference = str(Path(tmp) / "reference.npz")
