@@ -4,9 +4,11 @@ XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's 
 slower and run it no faster: with ``xla_cpu_use_fusion_emitters`` off, XLA's compile of a 0.2 s
 simulation took 3.8 s instead of 7.2 s, of its 3-parameter forward-mode gradient 7.1 s instead
 of 10.8 s, of Kvaerno5 with the smooth ball force 12.4 s instead of 16.4 s, at equal or lower run
-time (benchmarks/run.py measures the end result). The option exists on XLA:CPU only: GPU builds
-of JAX refuse it ("No such compile option"), so `jit` passes it only when it compiles for the
-CPU (`compiler_options`, `target_platform`) and passes no options elsewhere.
+time (benchmarks/run.py measures the end result). The option exists on XLA:CPU only, and only in
+some releases: GPU builds of JAX refuse it ("No such compile option"), and so does the CPU
+compiler of jax 0.11. `jit` passes it only when it compiles for the CPU (`compiler_options`,
+`target_platform`) and that CPU compiler accepts it (`cpu_options_supported`, asked once a
+process), and passes no options elsewhere.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
@@ -36,8 +38,21 @@ CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
 
 def compiler_options(platform: str) -> dict:
     """The XLA options for a platform (``"cpu"``, ``"gpu"``, ``"cuda"``, ``"tpu"``, ...):
-    `CPU_COMPILER_OPTIONS` on the CPU, none elsewhere."""
-    return dict(CPU_COMPILER_OPTIONS) if platform == "cpu" else {}
+    `CPU_COMPILER_OPTIONS` on a CPU whose compiler accepts them, none elsewhere."""
+    return dict(CPU_COMPILER_OPTIONS) if platform == "cpu" and cpu_options_supported() else {}
+
+
+@functools.cache
+def cpu_options_supported() -> bool:
+    """Whether this jaxlib's XLA:CPU accepts `CPU_COMPILER_OPTIONS` (one tiny compile, once)."""
+    try:
+        x = jax.device_put(0.0, jax.devices("cpu")[0])
+        jax.jit(lambda v: v + 1, compiler_options=CPU_COMPILER_OPTIONS)(x)
+    except jax.errors.JaxRuntimeError as error:
+        if "No such compile option" in str(error):
+            return False
+        raise
+    return True
 
 
 def target_platform(args) -> str:
