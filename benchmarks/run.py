@@ -505,7 +505,8 @@ def _gpu_rows(args, settings, results):
         )
     runs = []
     if "sweep" in parts:
-        runs += [(batch, GPU_SWEEP_TS, "default") for batch in map(int, args.gpu_batches.split(","))]
+        label = "command buffers" if args.gpu_command_buffers else "default"
+        runs += [(batch, GPU_SWEEP_TS, label) for batch in map(int, args.gpu_batches.split(","))]
     if "variants" in parts:  # at 4096 points: dense outputs, and CUDA-graph loops
         runs += [(4096, N_TS, "default"), (4096, GPU_SWEEP_TS, "command buffers")]
     if runs:
@@ -576,6 +577,7 @@ def main(argv=None):
     parser.add_argument("--max-wall", type=float, default=SCIPY_MAX_WALL)
     parser.add_argument("--gpu-parts", default=",".join(GPU_PARTS), help="parts of the gpu group to measure")
     parser.add_argument("--gpu-batches", default=",".join(map(str, GPU_BATCHES)), help="GPU sweep sizes")
+    parser.add_argument("--gpu-command-buffers", action="store_true", help="GPU sweeps with CUDA-graph loops")
     parser.add_argument("--gpu-repeat-max", type=int, default=4096,
                         help="GPU sweeps above this many points are timed on their first call only")
     parser.add_argument("--solver-rows", type=int, default=len(SOLVERS))
