@@ -215,7 +215,7 @@ def _gradient(args):
 def _sweep(args):
     """Throughput of jb.sweep over an n x n grid, after a first call that compiles."""
     jax, jb = _jax()
-    from jaxbearing.sweep import default_chunk_size
+    from jaxbearing._sweep import default_chunk_size
 
     model = jb.cases.xu2014(impact=True)
     grid = {

@@ -23,7 +23,7 @@ from .simulate import (
     kvaerno5,
     simulate,
 )
-from .sweep import sweep
+from ._sweep import sweep
 from .tune import TuneResult, sensitivity, tune
 
 __version__ = "0.1.0"
