@@ -24,7 +24,7 @@ from .simulate import (
     simulate,
 )
 from ._sweep import sweep
-from .tune import TuneResult, sensitivity, tune
+from ._tune import TuneResult, sensitivity, tune
 
 __version__ = "0.1.0"
 

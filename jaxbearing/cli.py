@@ -11,7 +11,7 @@ and writes into ``--out`` (default ``results/xu2014``):
   (`provenance.parameters`), each case's summary (`report.summarize` plus wall times) and the
   Table 5 comparison;
 - ``fig12_slider_target.png`` ... ``fig15_ball_loads.png``: the paper's Figs. 12–15 over
-  0.04–0.14 s, with and without impact overlaid.
+  `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid.
 
 Each case's files (and summary.json, and the figures with the cases done so far) are written as
 soon as that case is done, each atomically, so an interrupted run keeps what it had computed.
@@ -96,7 +96,7 @@ def run_xu2014(args) -> int:
     jax.config.update("jax_enable_x64", True)
     import numpy as np
 
-    from . import SimulationError, config, provenance, report, simulate
+    from . import SimulationError, cases, config, provenance, report, simulate
 
     overrides, source = {}, None
     try:
@@ -138,7 +138,7 @@ def run_xu2014(args) -> int:
         "rtol": args.rtol,
         "atol": args.atol,
         "peak_window_from_s": report.PEAK_FROM,
-        "figure_window_s": list(report.FIGURE_WINDOW),
+        "figure_window_s": list(cases.FIGURE_WINDOW),
         "config_file": source,
         "overrides": overrides,
         "versions": provenance.versions(),
@@ -191,7 +191,7 @@ def run_xu2014(args) -> int:
         print(report.format_summary(label, s), flush=True)
         done[label] = data
         if not args.no_figures:
-            written.extend(report.plot_figures(out, done, report.FIGURE_WINDOW))
+            written.extend(report.plot_figures(out, done, cases.FIGURE_WINDOW))
 
     if summary["table5"] is not None:
         print(report.format_table5(summary["table5"]))

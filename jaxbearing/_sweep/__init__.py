@@ -66,9 +66,10 @@ path (`provenance.parameters`; the swept ones as ``"swept"``: their values are t
 coordinates) and a fingerprint of the model: a hash of its tree structure and of the bytes of
 all its array leaves, with the swept leaves blanked), and the package versions that started it
 (`provenance.versions`). Each finished chunk is written at once, atomically (`jaxbearing._files`:
-temporary file + ``os.replace``), as ``chunk_XXXXX.npz``; at the end the whole Dataset goes to ``results.nc`` (netCDF, also atomic).
-Calling `sweep` again with the same arguments and ``out`` loads the chunks already written and
-computes only the missing ones: an interrupted sweep resumes. If the manifest differs (other
+temporary file + ``os.replace``), as ``chunk_XXXXX.npz``; at the end the whole Dataset goes
+to ``results.nc`` (netCDF, also atomic). Calling `sweep` again with the same arguments and
+``out`` loads the chunks already written and computes only the missing ones: an interrupted
+sweep resumes. If the manifest differs (other
 values, model, metrics or settings) `sweep` raises a `ValueError` listing what differs: use
 another ``out`` or delete the folder. A chunk file that cannot be read, or does not hold what the
 manifest says, raises a `ValueError` naming the file (delete it to recompute that chunk). A sweep

@@ -251,7 +251,9 @@ def _read_chunk(path, start, stop, points, metric_names):
         with np.load(path, allow_pickle=False) as f:
             data = {key: f[key] for key in _CHUNK_KEYS}
     except Exception as err:  # noqa: BLE001  (zip, npy and key errors alike)
-        raise ValueError(f"Chunk file {path} is unreadable or corrupted ({type(err).__name__}: {err}); {_HINT}.") from None
+        raise ValueError(
+            f"Chunk file {path} is unreadable or corrupted ({type(err).__name__}: {err}); {_HINT}."
+        ) from None
     n = stop - start
     problem = None
     if int(data["start"]) != start or int(data["stop"]) != stop:
