@@ -106,7 +106,7 @@ def plot_figures(out_dir, cases: Mapping[str, Mapping | object], window=FIGURE_W
             ``fig14_bearing_force.png``, ``fig15_ball_loads.png``.
         cases: label -> `Solution` or `series` dict, e.g. ``{"with impact": ..., "without
             impact": ...}``; a label containing "without" is drawn dashed (and last, on top).
-        window: time window [s] (default `cases.FIGURE_WINDOW`, the paper's 0.04–0.14 s).
+        window: time window [s] (default `cases.FIGURE_WINDOW`, the paper's).
 
     Returns the paths written.
     """

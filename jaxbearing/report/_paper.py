@@ -9,16 +9,8 @@ import numpy as np
 
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
 from ..metrics import T_MIN
-from ._series import (
-    Peak,
-    as_series,
-    ball_keys,
-    contact_intervals,
-    first_contact,
-    onsets,
-    peak,
-    series,
-)
+from ._series import Peak, as_series, ball_keys, contact_intervals, first_contact, onsets
+from ._series import peak, series
 
 PEAK_FROM = T_MIN  # [s] peaks are taken after the bearing's start-up transient (docs/model.md)
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
