@@ -267,7 +267,7 @@ def test_list_of_points(grid_result):
 def test_default_output_times_are_what_the_metrics_need():
     """Metrics of the solve's per-step records need no samples: without ts the members are
     solved with [t0, t1] only, and their metrics agree with `jb.metrics` of a dense single run
-    (another XLA program: the step sequences part at the solver's tolerance)."""
+    (another XLA program, so another step sequence: 2e-7 apart at most here)."""
     exact = {name: METRICS[name] for name in ("peak_ball_load", "rms_bearing_force")}
     ds = run({"bearing.clearance": CLEARANCES[::2]}, metrics=exact, ts=None)
     np.testing.assert_array_equal(ds.attrs["ts"], [0.0, T1])
@@ -275,7 +275,7 @@ def test_default_output_times_are_what_the_metrics_need():
         m = paths.replace(model(), {"bearing.clearance": c})
         sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, time_cells=TIME_CELLS)
         for name, fn in exact.items():
-            np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-4, err_msg=name)
+            np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-6, err_msg=name)
 
     # the rule: jaxbearing's segment metrics (also inside functools.partial) and functions
     # marked sample_free are sample-free; anything else (life integrates the samples) is not
