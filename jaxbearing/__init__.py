@@ -23,6 +23,9 @@ from .simulate import (
     kvaerno5,
     simulate,
 )
+
+# isort: split
+# last: the sweep reads the public names above from this package (`from .. import simulate`)
 from ._sweep import sweep
 from ._tune import TuneResult, sensitivity, tune
 

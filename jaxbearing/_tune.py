@@ -33,9 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from . import paths as _paths
+from . import paths as _paths, simulate  # simulate: the function, bound in __init__.py first
 from .compile import jit
-from .simulate import simulate
 
 
 def _values(model, names: Sequence[str]) -> jax.Array:
