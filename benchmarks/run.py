@@ -17,14 +17,15 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   with exact contact events) for LSODA, BDF, Radau and RK45; the fastest one that stays accurate
   sets the speed ratio;
 - sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
-  restitution on 1 and on 2 CPU devices;
+  restitution on 1 and on 2 CPU devices, with the sweep's default output times (the standard
+  metrics need none but [t0, t1]);
 - peak memory (maximum resident set size) of each measurement.
 
 The group ``gpu`` (run alone, ``--only gpu``; results in ``results_gpu.json`` with the device's
 name) measures on JAX's default accelerator: one simulation and the 3-parameter gradient, each
 with XLA's defaults and one run with CUDA-graph loops (`COMMAND_BUFFERS`); sweep throughput of
-one chunk of all points against batch size (`GPU_BATCHES`, members with 2 output times: the
-metrics are exact without samples) with the device memory per member; at 4096 points the same
+one chunk of all points against batch size (`GPU_BATCHES`, members with the sweep's default
+output times, [t0, t1]: the metrics are exact without samples) with the device memory per member; at 4096 points the same
 sweep with 2001 output times and with CUDA-graph loops. Sweeps above ``--gpu-repeat-max`` points
 are timed on their first call (compile included), the others on a second call. The reference runs
 stay on the CPU. Every row carries the same accuracy checks as on the CPU.
@@ -81,7 +82,7 @@ SWEEP_RESTITUTIONS = (0.5, 0.95)
 SWEEP_CORNER = {"bearing.clearance": SWEEP_CLEARANCES[1], "impact.restitution": SWEEP_RESTITUTIONS[1]}
 SWEEP_CHECKED = ("peak_ball_load", "peak_bearing_force")  # metrics checked at the grid's corner
 GPU_BATCHES = (256, 1024, 4096, 16_384, 65_536)  # sweep points in one chunk on one GPU
-GPU_SWEEP_TS = 2  # output times of a GPU sweep member: the metrics are exact without samples
+GPU_SWEEP_TS = 0  # output times of a GPU sweep member: the sweep's default ([t0, t1] for exact metrics)
 COMMAND_BUFFERS = "--xla_gpu_enable_command_buffer=+WHILE,+CONDITIONAL"  # CUDA graphs for loops
 
 
@@ -246,14 +247,14 @@ def _sweep(args):
     a first call (compile + run), then, unless ``--once``, a timed second call; the member at the
     grid's corner checked against the reference run there."""
     jax, jb = _jax()
-    from jaxbearing.sweep import default_chunk_size
+    from jaxbearing._sweep import default_chunk_size
 
     model = jb.cases.xu2014(impact=True)
     grid = {
         "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, args.sweep_n),
         "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, args.sweep_n),
     }
-    ts = np.linspace(0.0, args.t1, args.sweep_ts)
+    ts = np.linspace(0.0, args.t1, args.sweep_ts) if args.sweep_ts else None  # None: the sweep's default
     kwargs = dict(t1=args.t1, ts=ts, progress=False, chunk_size=args.chunk_size or None)
     start = time.perf_counter()
     ds = jb.sweep(model, grid, **kwargs)
@@ -277,7 +278,7 @@ def _sweep(args):
         devices=jax.device_count(),
         device_kind=device.device_kind,
         points=int(points),
-        output_times=int(args.sweep_ts),
+        output_times=int(ds.attrs["ts"].size),
         chunk_size=args.chunk_size or default_chunk_size(),
         wall_s=wall,
         first_call_s=first,
@@ -523,7 +524,7 @@ def _gpu_rows(args, settings, results):
         _save(args, results)
         timed = row["wall_s"] if row["wall_s"] is not None else row["first_call_s"]
         print(
-            f"  {row['points']:6d} points, {n_ts} output times, {label}: {timed:.1f} s "
+            f"  {row['points']:6d} points, {row['output_times']} output times, {label}: {timed:.1f} s "
             f"({'second call' if row['wall_s'] is not None else 'first call, compile included'}) = "
             f"{row['points'] / timed:.0f} simulations/s; {row.get('device_MiB_per_member', 0):.3f} MiB a member "
             f"on the device  {_ok(row)}",
@@ -589,7 +590,7 @@ def main(argv=None):
     parser.add_argument("--solver")
     parser.add_argument("--force")
     parser.add_argument("--method")
-    parser.add_argument("--sweep-ts", type=int, default=N_TS, help="output times of a sweep member")
+    parser.add_argument("--sweep-ts", type=int, default=0, help="output times of a sweep member (0: the sweep's default)")
     parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
     args = parser.parse_args(argv)
     if args.item:

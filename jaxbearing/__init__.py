@@ -23,8 +23,11 @@ from .simulate import (
     kvaerno5,
     simulate,
 )
-from .sweep import sweep
-from .tune import TuneResult, sensitivity, tune
+
+# isort: split
+# last: the sweep reads the public names above from this package (`from .. import simulate`)
+from ._sweep import sweep
+from ._tune import TuneResult, sensitivity, tune
 
 __version__ = "0.1.0"
 

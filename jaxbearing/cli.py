@@ -11,7 +11,7 @@ and writes into ``--out`` (default ``results/xu2014``):
   (`provenance.parameters`), each case's summary (`report.summarize` plus wall times) and the
   Table 5 comparison;
 - ``fig12_slider_target.png`` ... ``fig15_ball_loads.png``: the paper's Figs. 12–15 over
-  0.04–0.14 s, with and without impact overlaid.
+  `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid.
 
 Each case's files (and summary.json, and the figures with the cases done so far) are written as
 soon as that case is done, each atomically, so an interrupted run keeps what it had computed.
@@ -91,54 +91,85 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run_xu2014(args) -> int:
+    """The ``xu2014`` command: check the settings, then run, report and write each case."""
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    import numpy as np
+    from . import config
 
-    from . import SimulationError, config, provenance, report, simulate
-
-    overrides, source = {}, None
     try:
-        if args.config is not None:
-            source = str(Path(args.config).resolve())
-            overrides = config.read_overrides(source)
-        models = config.xu2014_models(overrides, source or "the default parameters")
+        overrides, source, models = _models(args, config)
     except config.ConfigError as err:
         print(f"jaxbearing xu2014: {err}", file=sys.stderr)
         return 2
+    ts, stride = _output_times(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    contact_on = float(models[True].contacts[0].active_from)
+    if args.t1 <= contact_on:
+        _warn(f"--t1 {args.t1:g} s does not pass the time the slider-target contact switches on "
+              f"(contact_on = {contact_on:g} s), so the cases with and without impact give the "
+              f"same results; the first contact comes near t = {FIRST_CONTACT} s (paper's "
+              "parameters): use --t1 0.1 or more.")  # fmt: skip
+    summary = _summary(args, ts, stride, source, overrides, models)
+    written: list[Path] = []
+    done: dict = {}
+    for key, label, impact in CASES:
+        result = _run_case(args, models[impact], ts, label)
+        if result is None:
+            return 1
+        sol, s = result
+        if impact and args.t1 > contact_on and s["contact_count"] == 0:
+            _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and without "
+                  "impact give the same results; the first contact comes near "
+                  f"t = {FIRST_CONTACT} s (paper's parameters).")  # fmt: skip
+        written += _write_case(args, out, key, label, impact, sol, s, summary, stride, done)
+    _print_end(summary, out, written)
+    return 0
+
+
+def _models(args, config):
+    """(overrides, their file or None, {impact: model}); `config.ConfigError` when invalid."""
+    overrides, source = {}, None
+    if args.config is not None:
+        source = str(Path(args.config).resolve())
+        overrides = config.read_overrides(source)
+    return overrides, source, config.xu2014_models(overrides, source or "the default parameters")
+
+
+def _output_times(args):
+    """(output times [s], CSV stride in samples) of the command's options."""
+    import numpy as np
+
     if not args.t1 > 0:
         raise SystemExit(f"--t1 must be positive; got {args.t1}")
     samples = args.samples if args.samples is not None else round(args.t1 / DEFAULT_DT) + 1
     if samples < 2:
         raise SystemExit(f"--samples must be at least 2; got {samples}")
-    ts = np.linspace(0.0, args.t1, samples)
     dt = args.t1 / (samples - 1)
-    stride = max(1, round(args.csv_dt / dt))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    contact_on = float(models[True].contacts[0].active_from)
-    if args.t1 <= contact_on:
-        print(
-            f"jaxbearing xu2014: warning: --t1 {args.t1:g} s does not pass the time the "
-            f"slider-target contact switches on (contact_on = {contact_on:g} s), so the cases "
-            "with and without impact give the same results; the first contact comes near "
-            f"t = {FIRST_CONTACT} s (paper's parameters): use --t1 0.1 or more.",
-            file=sys.stderr,
-            flush=True,
-        )
+    return np.linspace(0.0, args.t1, samples), max(1, round(args.csv_dt / dt))
 
-    summary = {
+
+def _warn(message):
+    print(f"jaxbearing xu2014: warning: {message}", file=sys.stderr, flush=True)
+
+
+def _summary(args, ts, stride, source, overrides, models) -> dict:
+    """summary.json before any case has run: the settings and every parameter."""
+    from . import cases, provenance, report
+
+    dt = args.t1 / (ts.size - 1)
+    return {
         "case": "xu2014 impact slider-crank (Xu 2014, Sect. 3; docs/model.md, 'The paper's case')",
         "t1_s": args.t1,
-        "samples": samples,
+        "samples": int(ts.size),
         "output_dt_s": dt,
         "csv_dt_s": stride * dt,
         "csv_columns": None,
         "rtol": args.rtol,
         "atol": args.atol,
         "peak_window_from_s": report.PEAK_FROM,
-        "figure_window_s": list(report.FIGURE_WINDOW),
+        "figure_window_s": list(cases.FIGURE_WINDOW),
         "config_file": source,
         "overrides": overrides,
         "versions": provenance.versions(),
@@ -146,59 +177,65 @@ def run_xu2014(args) -> int:
         "cases": {},
         "table5": None,
     }
-    written: list[Path] = []
-    done: dict = {}
-    for key, label, impact in CASES:
-        model = models[impact]
 
-        def solve(progress, model=model):
-            sol = simulate(model, args.t1, ts, rtol=args.rtol, atol=args.atol, progress=progress)
-            return jax.block_until_ready(sol)
 
+def _run_case(args, model, ts, label):
+    """(solution, summary with life and wall times) of one case; None (message printed) when
+    the solve fails."""
+    import jax
+
+    from . import SimulationError, report, simulate
+
+    def solve(progress):
+        sol = simulate(model, args.t1, ts, rtol=args.rtol, atol=args.atol, progress=progress)
+        return jax.block_until_ready(sol)
+
+    start = time.perf_counter()
+    try:
+        sol = solve(label)
+    except SimulationError as err:
+        print(f"{label}: {err}", file=sys.stderr)
+        return None
+    wall_first = time.perf_counter() - start
+    wall_second = None
+    if not args.no_rerun:
         start = time.perf_counter()
-        try:
-            sol = solve(label)
-        except SimulationError as err:
-            print(f"{label}: {err}", file=sys.stderr)
-            return 1
-        wall_first = time.perf_counter() - start
-        wall_second = None
-        if not args.no_rerun:
-            start = time.perf_counter()
-            with contextlib.redirect_stderr(io.StringIO()):  # same label: no recompile, no bar
-                solve(label)
-            wall_second = time.perf_counter() - start
+        with contextlib.redirect_stderr(io.StringIO()):  # same label: no recompile, no bar
+            solve(label)
+        wall_second = time.perf_counter() - start
+    s = report.summarize(sol, report.PEAK_FROM)
+    s.update(report.life_summary(sol, model, report.PEAK_FROM))
+    s["wall_first_s"] = wall_first
+    s["wall_second_s"] = wall_second
+    return sol, s
 
-        data = report.series(sol)
-        s = report.summarize(sol, report.PEAK_FROM)
-        s.update(report.life_summary(sol, model, report.PEAK_FROM))
-        if impact and args.t1 > contact_on and s["contact_count"] == 0:
-            print(
-                f"jaxbearing xu2014: warning: no slider-target contact in 0-{args.t1:g} s, so the "
-                "cases with and without impact give the same results; the first contact comes "
-                f"near t = {FIRST_CONTACT} s (paper's parameters).",
-                file=sys.stderr,
-                flush=True,
-            )
-        s["wall_first_s"] = wall_first
-        s["wall_second_s"] = wall_second
-        summary["cases"][key] = s
-        summary["csv_columns"] = report.csv_columns(data)
-        written.append(report.write_csv(out / f"{key}.csv", data, stride))
-        if not impact:
-            summary["table5"] = report.table5_summary(data)
-        written.append(report.write_json(out / "summary.json", summary))
-        print(report.format_summary(label, s), flush=True)
-        done[label] = data
-        if not args.no_figures:
-            written.extend(report.plot_figures(out, done, report.FIGURE_WINDOW))
+
+def _write_case(args, out, key, label, impact, sol, s, summary, stride, done) -> list[Path]:
+    """Write one case's CSV, the summary so far and the figures of the cases done; print it."""
+    from . import cases, report
+
+    data = report.series(sol)
+    summary["cases"][key] = s
+    summary["csv_columns"] = report.csv_columns(data)
+    written = [report.write_csv(out / f"{key}.csv", data, stride)]
+    if not impact:
+        summary["table5"] = report.table5_summary(data)
+    written.append(report.write_json(out / "summary.json", summary))
+    print(report.format_summary(label, s), flush=True)
+    done[label] = data
+    if not args.no_figures:
+        written += report.plot_figures(out, done, cases.FIGURE_WINDOW)
+    return written
+
+
+def _print_end(summary, out, written):
+    from . import report
 
     if summary["table5"] is not None:
         print(report.format_table5(summary["table5"]))
     print(f"files in {out}:")
     for path in sorted(set(written)):
         print(f"  {path.name:<26} {path.stat().st_size / 1024:10.1f} KiB")
-    return 0
 
 
 def main(argv=None) -> int:

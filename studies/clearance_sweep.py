@@ -49,7 +49,7 @@ def main(argv=None) -> int:
     jax.config.update("jax_enable_x64", True)
 
     import jaxbearing as jb
-    from jaxbearing.sweep import sweep
+    from jaxbearing import sweep
 
     clearances = np.array(QUICK_CLEARANCES_UM if args.quick else CLEARANCES_UM) * 1e-6
     restitutions = np.array(QUICK_RESTITUTIONS if args.quick else RESTITUTIONS)

@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 import optax  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
-from jaxbearing.cases.xu2014 import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
+from jaxbearing.cases import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
 
 GROOVES = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
 

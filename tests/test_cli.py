@@ -16,8 +16,8 @@ import jax
 import numpy as np
 import pytest
 
-from jaxbearing import cases, cli, config, paths, provenance, report
-from jaxbearing.cases.xu2014 import TABLE5, TABLE5_TIMES
+from jaxbearing import _files, cases, cli, config, paths, provenance, report
+from jaxbearing.cases import TABLE5, TABLE5_TIMES
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -176,7 +176,7 @@ def test_write_csv_stride_and_atomic(tmp_path):
     rows = list(csv.reader(path.open()))
     assert rows[0][0] == "t_s" and rows[0][-1] == "penetration_m" and len(rows[0]) == 20
     np.testing.assert_allclose([float(r[0]) for r in rows[1:]], [0.0, 0.3, 0.6, 0.9, 1.0])
-    with pytest.raises(RuntimeError), report.atomic_path(path) as tmp:
+    with pytest.raises(RuntimeError), _files.atomic_path(path) as tmp:
         tmp.write_text("half-written")
         raise RuntimeError("interrupted")
     assert path.read_text().startswith("t_s,")  # the old file survives

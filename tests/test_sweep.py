@@ -21,7 +21,6 @@ solver-tolerance level (3e-5 relative over these 0.01 s).
 from __future__ import annotations
 
 import functools
-import importlib
 import json
 import os
 import signal
@@ -36,10 +35,10 @@ import pytest
 import xarray as xr
 
 import jaxbearing as jb
-from jaxbearing import metrics as M, paths, provenance
+from jaxbearing import _sweep, metrics as M, paths, provenance
+from jaxbearing._sweep import kernel, store
 
-sweep_module = importlib.import_module("jaxbearing.sweep")
-sweep = sweep_module.sweep
+sweep = jb.sweep
 
 T1 = 0.01
 TS = np.linspace(0.0, T1, 11)
@@ -265,28 +264,56 @@ def test_list_of_points(grid_result):
         run({"bearing.clearance": [1e-5, 2e-5], "bearing.damping": [300.0]}, grid=False)
 
 
+def test_default_output_times_are_what_the_metrics_need():
+    """Metrics of the solve's per-step records need no samples: without ts the members are
+    solved with [t0, t1] only, and their metrics agree with `jb.metrics` of a dense single run
+    (another XLA program, so another step sequence: 2e-7 apart at most here)."""
+    exact = {name: METRICS[name] for name in ("peak_ball_load", "rms_bearing_force")}
+    ds = run({"bearing.clearance": CLEARANCES[::2]}, metrics=exact, ts=None)
+    np.testing.assert_array_equal(ds.attrs["ts"], [0.0, T1])
+    for c in CLEARANCES[::2]:
+        m = paths.replace(model(), {"bearing.clearance": c})
+        sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, time_cells=TIME_CELLS)
+        for name, fn in exact.items():
+            np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-6, err_msg=name)
+
+    # the rule: jaxbearing's segment metrics (also inside functools.partial) and functions
+    # marked sample_free are sample-free; anything else (life integrates the samples) is not
+    def own(sol):
+        return M.peak_ball_load(sol, t_min=0.0)
+
+    assert [_sweep.needs_samples(fn) for fn in (*exact.values(), M.smooth_peak_ball_load, own)] == [
+        False, False, False, True
+    ]
+    own.sample_free = True
+    assert not _sweep.needs_samples(own)
+    assert _sweep.needs_samples(METRICS["l10_iso_hours"])
+    times = _sweep.arguments.output_times(tuple(METRICS.items()), 0.0, T1, None)
+    np.testing.assert_array_equal(times, np.linspace(0.0, T1, _sweep.DEFAULT_SAMPLES))
+
+
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, grid_result):
     reference = grid_result[0]
     calls = []
-    original = sweep_module._ChunkRunner.__call__
+    original = kernel.ChunkRunner.__call__
 
     def counting(self, points):
         calls.append(points.copy())
         return original(self, points)
 
-    monkeypatch.setattr(sweep_module._ChunkRunner, "__call__", counting)
+    monkeypatch.setattr(kernel.ChunkRunner, "__call__", counting)
 
     # interrupted after the first chunk is written
-    original_save = sweep_module._save_chunk
+    original_save = store.save_chunk
 
     def save_then_stop(path, *args):
         original_save(path, *args)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sweep_module, "_save_chunk", save_then_stop)
+    monkeypatch.setattr(store, "save_chunk", save_then_stop)
     with pytest.raises(KeyboardInterrupt):
         run(out=tmp_path)
-    monkeypatch.setattr(sweep_module, "_save_chunk", original_save)
+    monkeypatch.setattr(store, "save_chunk", original_save)
     assert sorted(p.name for p in tmp_path.glob("chunk_*")) == ["chunk_00000.npz"]
     assert not (tmp_path / "results.nc").exists()
 
@@ -316,29 +343,29 @@ def test_a_chunk_that_raises_is_rerun_point_by_point(tmp_path, monkeypatch, grid
     """An error raised inside the solve (an equinox check) would abort the whole chunk: the
     sweep reruns its points alone and marks only those that still raise."""
     reference = grid_result[0]
-    real = sweep_module._run_chunk
+    real = kernel.run_chunk
 
     def raising(model, rows, *args):
         if np.any(np.asarray(rows)[:, 0] == 40e-6):
             raise jax.errors.JaxRuntimeError("INTERNAL: a check failed for clearance 40 um")
         return real(model, rows, *args)
 
-    monkeypatch.setattr(sweep_module, "_run_chunk", raising)
+    monkeypatch.setattr(kernel, "run_chunk", raising)
     with pytest.warns(RuntimeWarning) as caught:
         ds = run(out=tmp_path)
     assert "chunk 1 raised" in str(caught[0].message)
     bad = ds["bearing.clearance"] == 40e-6
-    assert (ds.status.where(bad, drop=True) == sweep_module.RAISED).all()
+    assert (ds.status.where(bad, drop=True) == _sweep.RAISED).all()
     assert ds.failed.where(bad, drop=True).all()
     assert np.isnan(ds.peak_ball_load.where(bad, drop=True)).all()
     raised = [f for f in json.loads(ds.attrs["failures"]) if f["result"] == "raised"]
     assert [f["point"] for f in raised] == [{"bearing.clearance": 40e-6, "bearing.damping": d} for d in DAMPINGS]
-    assert all(f["status"] == sweep_module.RAISED for f in raised)
+    assert all(f["status"] == _sweep.RAISED for f in raised)
     assert raised[0]["message"] == "INTERNAL: a check failed for clearance 40 um"
     assert "point 2 (bearing.clearance = 4e-05, bearing.damping = 300): raised: INTERNAL: a check failed" in str(caught[-1].message)
     assert_same(ds.where(~bad, drop=True), reference.where(~bad, drop=True))
     # kept in the chunk files: a rerun loads the marks
-    monkeypatch.setattr(sweep_module, "_run_chunk", real)
+    monkeypatch.setattr(kernel, "run_chunk", real)
     again = run(out=tmp_path)
     assert again.attrs["sweep_computed_points"] == 0
     assert again.attrs["failures"] == ds.attrs["failures"]

@@ -1,6 +1,28 @@
-"""Ready-made mechanisms: the paper's impact slider–crank and a rotor hung in a bearing."""
+"""Ready-made mechanisms: the paper's impact slider–crank (`xu2014`, with its Table 5 and figure
+window) and a rotor hung in a bearing (`rotor`)."""
 
-from .rotor import rotor
-from .xu2014 import TABLE5, TABLE5_TIMES, xu2014
+from ._rotor import rotor
+from ._xu2014 import (
+    FIGURE_WINDOW,
+    GROOVE_INNER,
+    GROOVE_OUTER,
+    SLIDER,
+    TABLE5,
+    TABLE5_TIMES,
+    TARGET,
+    skf98205,
+    xu2014,
+)
 
-__all__ = ["TABLE5", "TABLE5_TIMES", "rotor", "xu2014"]
+__all__ = [
+    "FIGURE_WINDOW",
+    "GROOVE_INNER",
+    "GROOVE_OUTER",
+    "SLIDER",
+    "TABLE5",
+    "TABLE5_TIMES",
+    "TARGET",
+    "rotor",
+    "skf98205",
+    "xu2014",
+]

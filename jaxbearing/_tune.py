@@ -10,8 +10,8 @@ Which differentiation mode:
   right choice for the handful of design parameters of a bearing (clearance, restitution,
   stiffness, damping). `sensitivity` uses it by default.
 - reverse mode (`jax.grad` with the default `RecursiveCheckpointAdjoint`) costs a fixed multiple
-  of a forward run whatever the number of parameters (about 6x here); use it for many parameters.
-  `tune` uses it, so a loss can call `simulate` with its defaults.
+  of a forward run whatever the number of parameters (the README gives the measured costs); use
+  it for many parameters. `tune` uses it, so a loss can call `simulate` with its defaults.
 
 Both ball forces give derivatives of the computed solution that are exact to the solver's
 tolerance: the paper force's switches are located as events, whose implicit time derivatives
@@ -33,9 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from . import paths as _paths
+from . import paths as _paths, simulate  # simulate: the function, bound in __init__.py first
 from .compile import jit
-from .simulate import simulate
 
 
 def _values(model, names: Sequence[str]) -> jax.Array:

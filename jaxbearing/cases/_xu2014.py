@@ -30,6 +30,9 @@ ROD_LENGTH = 0.120  # [m]
 SPRING_FREE_LENGTH = 0.1  # [m], any positive value: the spring is unstressed at the start
 GROOVE_INNER = 0.5219  # raceway groove curvature ratios f = r/D that reproduce the paper's K_i, K_o
 GROOVE_OUTER = 0.5194
+SLIDER = 2  # body index of the slider
+TARGET = 3  # body index of the target
+FIGURE_WINDOW = (0.04, 0.14)  # [s] one crank revolution, the window of the paper's Figs. 12–15
 
 # Paper Table 5: ball loads [N] without impact, kinematic cage; rows ball 1..8, columns TABLE5_TIMES.
 TABLE5_TIMES = np.array([0.04, 0.06, 0.08, 0.10, 0.12])

@@ -1,0 +1,121 @@
+"""Parameter sweeps (`jaxbearing.sweep`): many simulations of one model, vmapped, chunked, spread
+over devices, resumable.
+
+    import jaxbearing as jb
+    ds = jb.sweep(jb.cases.xu2014(),
+                  {"bearing.clearance": [20e-6, 40e-6, 60e-6], "impact.restitution": [0.7, 0.9]},
+                  out="results/map")            # writes as it goes; rerun to resume
+    ds.peak_ball_load.sel({"impact.restitution": 0.9})
+
+`sweep` evaluates the full grid of the given parameter values (``grid=True``) or a list of points
+(``grid=False``), computes scalar metrics of each `Solution` (default `metrics.STANDARD`) and
+returns an `xarray.Dataset`: one data variable per metric plus ``status`` (the `RESULTS` code of
+the solve, 0 = successful) and ``failed`` (status != 0; the metrics of a failed member are NaN).
+
+A metric is a function of the member's `Solution`, ``fn(sol) -> scalar``; one that also needs
+the model (bearing life needs the bearing's geometry and the ring speeds) is wrapped in
+`metrics.WithModel` and called ``fn(sol, model)`` with the member's own model, its swept
+parameters set. `life.metric` makes the L10 life such a metric:
+
+    metrics = {**jb.metrics.STANDARD,
+               "l10_hours": jb.life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
+
+How it runs
+-----------
+- Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is
+  one call of a jitted ``shard_map(vmap(point -> metrics))`` over a 1-D mesh of all JAX devices
+  (``jax.devices()``), so each device integrates its own members in its own loop; the chunk is
+  padded to a multiple of the device count by repeating its last point (the padding is dropped).
+  All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
+  of the same model structure, metrics and solver settings in the same process). Memory stays
+  bounded by the chunk, whatever the number of points.
+- Under vmap a solver loop runs until its slowest member finishes: points that need many steps
+  slow down their chunk, not the others.
+- Output times. Without ``ts`` a member is solved with just the output times its metrics
+  need: ``[t0, t1]`` when every metric comes from the solve's per-step records
+  (`Solution.segments`: `metrics.STANDARD`, `metrics.SMOOTH`, and any function marked with the
+  attribute ``sample_free = True``), so a member's memory does not grow with an output count;
+  `DEFAULT_SAMPLES` (2001) equally spaced times when a metric reads the samples (e.g.
+  `life.metric`, which integrates over them; `arguments.needs_samples` is the rule).
+- Chunk size. On CPU devices the default is 16 points per device. A batch runs in lock-step to
+  its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
+  gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and
+  holds more members in memory. The measured rates and memory per member are in the README
+  ('Performance and solvers') and ``benchmarks/results.json``
+  (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 8 points
+  per device (not measured: set ``chunk_size`` from a measurement on the machine at hand).
+- Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
+  ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.
+  A chunk that raises at run time (an equinox check inside the solve) is rerun one point at a
+  time with the same compiled function; the points that still raise get ``status = RAISED``
+  (-1) and NaN metrics (in multi-process runs such an error is re-raised instead).
+  Invalid parameter values (e.g. a negative clearance) are rejected before anything runs, with a
+  `ValueError` naming the point.
+- Failed members are reported with their parameters: one `RuntimeWarning` at the end lists
+  them (point index, parameter values, result name and message, up to 10 lines), and
+  ``attrs["failures"]`` (JSON) holds them all, each as ``{"index", "point": {path: value},
+  "status", "result", "message"}`` (for `RAISED` the error's message).
+- To use several CPU cores as devices, set ``XLA_FLAGS=--xla_force_host_platform_device_count=N``
+  in the environment before JAX is imported.
+
+Output folder (``out=``)
+------------------------
+``manifest.json`` records what the sweep is (parameter names and values, grid or list, metric
+names, t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
+path (`provenance.parameters`; the swept ones as ``"swept"``: their values are the
+coordinates) and a fingerprint of the model: a hash of its tree structure and of the bytes of
+all its array leaves, with the swept leaves blanked), and the package versions that started it
+(`provenance.versions`). Each finished chunk is written at once, atomically (`jaxbearing._files`:
+temporary file + ``os.replace``), as ``chunk_XXXXX.npz``; at the end the whole Dataset goes
+to ``results.nc`` (netCDF, also atomic). Calling `sweep` again with the same arguments and
+``out`` loads the chunks already written and computes only the missing ones: an interrupted
+sweep resumes. If the manifest differs (other
+values, model, metrics or settings) `sweep` raises a `ValueError` listing what differs: use
+another ``out`` or delete the folder. A chunk file that cannot be read, or does not hold what the
+manifest says, raises a `ValueError` naming the file (delete it to recompute that chunk). A sweep
+started on one device count may be resumed on another: without an explicit ``chunk_size`` the
+chunk layout of the manifest is kept. Package versions are recorded but not compared: a sweep
+resumed under other versions goes on with a `RuntimeWarning` naming them (results may then
+differ in the last bits between the chunks computed before and after), and ``results.nc``
+records both sets. ``results.nc`` carries the manifest's records as attributes (``versions``,
+``model_parameters``, ``simulate_kwargs``, ... as JSON): with the coordinates they are the full
+input of every member.
+
+Several hosts (``jax.distributed``)
+-----------------------------------
+Call ``jax.distributed.initialize()`` (with the coordinator address, process count and id where
+the cluster does not provide them) on every host before importing models or calling `sweep`,
+then run the *same* ``sweep(...)`` call, with the same arguments, in every process. The mesh then
+spans the devices of all hosts and each chunk is shared among all of them:
+
+- process 0 alone reads and writes ``out`` (it need not be on a shared file system); it checks the
+  manifest, loads the chunks already done and broadcasts them to the other processes
+  (`jax.experimental.multihost_utils.broadcast_one_to_all`), so every process skips the same
+  chunks;
+- after each chunk the per-device results are gathered to every process
+  (`multihost_utils.process_allgather`); process 0 writes the chunk file and shows the progress;
+- every process returns the same complete Dataset.
+
+With one process these steps are no-ops. All processes must run the same JAX program in the same
+order (as always with multi-controller JAX): do not make the call conditional on the process.
+
+Modules, one job each: `arguments` (checks and resolves the arguments: points, metrics, output
+times, chunk size), `kernel` (the sharded, vmapped chunk function), `store` (manifest, chunk
+files, resume), `dataset` (the Dataset, ``results.nc``, the failure report), `progress` (the
+bar) and `driver` (`sweep`, a list of these stages).
+"""
+
+from .arguments import DEFAULT_SAMPLES, default_chunk_size, needs_samples
+from .driver import sweep
+from .kernel import RAISED
+from .store import MANIFEST, RESULTS_FILE
+
+__all__ = [
+    "DEFAULT_SAMPLES",
+    "MANIFEST",
+    "RAISED",
+    "RESULTS_FILE",
+    "default_chunk_size",
+    "needs_samples",
+    "sweep",
+]

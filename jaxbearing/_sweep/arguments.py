@@ -1,0 +1,216 @@
+"""The sweep's arguments, checked and resolved before anything runs: parameters and points,
+metrics (and whether they need output samples), simulate's settings, output times, chunk size."""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable, Mapping
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+# the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
+from .. import Mechanism, default_max_segments, default_solver, metrics as _metrics, paths, simulate
+
+DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
+DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
+DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
+SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
+RESERVED = ("status", "failed", "point")
+NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itself
+# jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
+# whatever the output times: recognised as sample-free without the attribute
+_SEGMENT_METRICS = frozenset({*_metrics.STANDARD.values(), *_metrics.SMOOTH.values()})
+
+
+class Request(NamedTuple):
+    """A checked sweep: ``points`` (n_points, n_params) in the order of ``names``; ``shape``
+    of the result (the grid's, or (n_points,)); ``metric_items`` ((name, fn), ...); times [s]."""
+
+    names: tuple[str, ...]
+    axes: list[np.ndarray]
+    grid: bool
+    points: np.ndarray
+    shape: tuple[int, ...]
+    metric_items: tuple[tuple[str, Callable], ...]
+    t0: float
+    t1: float
+    ts: np.ndarray
+    sim_kwargs: dict
+
+
+def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
+    """Check every argument of `jaxbearing.sweep` (ValueError/TypeError naming the fix)."""
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"sweep needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    names, axes = parameters(model, params)
+    points, shape = grid_points(names, axes, grid)
+    items = metric_items(metrics, names)
+    sim_kwargs = simulate_kwargs_of(simulate_kwargs)
+    t1 = float(t1)
+    t0 = float(sim_kwargs.get("t0", 0.0))
+    if sim_kwargs.get("max_segments") is None:
+        sim_kwargs["max_segments"] = default_max_segments(model, t0, t1)
+    check_points(model, names, points)
+    return Request(names, axes, bool(grid), points, shape, items, t0, t1, output_times(items, t0, t1, ts), sim_kwargs)
+
+
+def parameters(model, params):
+    """(names, 1-D float64 values) of the swept parameters, each a scalar array leaf."""
+    if not isinstance(params, Mapping) or not params:
+        raise ValueError(
+            "params must be a non-empty mapping of parameter paths to values, e.g. "
+            '{"bearing.clearance": [2e-5, 4e-5]}.'
+        )
+    names, axes = [], []
+    for name, raw in params.items():
+        if not isinstance(name, str):
+            raise TypeError(f"Parameter names must be dotted paths (str); got {name!r}.")
+        if name in RESERVED:
+            raise ValueError(f"{name!r} cannot be a parameter name (reserved for the results).")
+        leaf = paths.get(model, name)  # clear error for a bad path
+        if not eqx.is_array(leaf) or jnp.shape(leaf) != ():
+            raise ValueError(
+                f"Parameter {name!r} must be a scalar array leaf of the model to be swept; "
+                f"got {type(leaf).__name__} {getattr(leaf, 'shape', '')}."
+            )
+        v = np.asarray(raw, dtype=np.float64)
+        if v.ndim == 0:
+            v = v.reshape(1)
+        if v.ndim != 1 or v.size == 0:
+            raise ValueError(
+                f"The values of {name!r} must be a non-empty 1-D array; got shape {v.shape}."
+            )
+        names.append(name)
+        axes.append(v)
+    return tuple(names), axes
+
+
+def grid_points(names, axes, grid):
+    """(points, result shape): every combination (grid) or the i-th values together (list)."""
+    if grid:
+        shape = tuple(a.size for a in axes)
+        mesh = np.meshgrid(*axes, indexing="ij")
+        return np.stack([m.ravel() for m in mesh], axis=1), shape
+    lengths = {name: a.size for name, a in zip(names, axes)}
+    if len(set(lengths.values())) != 1:
+        raise ValueError(
+            f"With grid=False every parameter needs the same number of values (one per point); "
+            f"got {lengths}."
+        )
+    return np.stack(axes, axis=1), (axes[0].size,)
+
+
+def metric_items(metrics, names):
+    """((name, fn), ...) of the metrics (default `metrics.STANDARD`)."""
+    metrics = _metrics.STANDARD if metrics is None else metrics
+    if not isinstance(metrics, Mapping) or not metrics:
+        raise ValueError(
+            "metrics must be a non-empty mapping of names to functions of a Solution (or "
+            "metrics.WithModel functions of a Solution and the model)."
+        )
+    items = []
+    for name, fn in metrics.items():
+        if not isinstance(name, str) or not callable(fn):
+            raise TypeError(f"metrics maps names (str) to functions of a Solution; got {name!r}: {fn!r}.")
+        if name in RESERVED or name in names:
+            raise ValueError(
+                f"Metric name {name!r} collides with a parameter or a reserved name {RESERVED}."
+            )
+        items.append((name, fn))
+    return tuple(items)
+
+
+def needs_samples(fn) -> bool:
+    """Whether metric ``fn`` reads the solution's output samples (``sol.ts``, ``sol.ball_loads``,
+    ...). Not when the function (inside a `metrics.WithModel` or a `functools.partial`) is one
+    of `metrics.STANDARD` or `metrics.SMOOTH`, or carries the attribute ``sample_free = True``
+    (for your own metrics of ``sol.segments``); every other metric does (e.g. `life.metric`)."""
+    inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
+    inner = getattr(inner, "func", inner)  # functools.partial
+    return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
+
+
+def output_times(items, t0, t1, ts) -> np.ndarray:
+    """``ts`` as given, else just what the metrics need: [t0, t1] when none reads the samples,
+    else `DEFAULT_SAMPLES` equally spaced times."""
+    if ts is None:
+        dense = any(needs_samples(fn) for _, fn in items)
+        return np.linspace(t0, t1, DEFAULT_SAMPLES if dense else 2)
+    ts = np.asarray(ts, dtype=np.float64)
+    if ts.ndim != 1 or ts.size < 1:
+        raise ValueError(f"ts must be a non-empty 1-D array of times; got shape {ts.shape}.")
+    return ts
+
+
+def simulate_kwargs_of(kwargs):
+    """The keyword arguments forwarded to `simulate`, sorted; TypeError for others."""
+    accepted = set(_simulate_parameters()) - {"model", "t1", "ts"}
+    for key in kwargs:
+        if key in NOT_FORWARDED:
+            raise TypeError(f"sweep sets simulate's {key!r} itself; do not pass it.")
+        if key not in accepted:
+            raise TypeError(
+                f"sweep got an unexpected keyword {key!r}; it forwards only simulate's "
+                f"{sorted(accepted - set(NOT_FORWARDED))}."
+            )
+    return dict(sorted(kwargs.items()))
+
+
+def resolved_settings(sim_kwargs):
+    """simulate's keyword arguments with defaults filled in (for the manifest and attributes)."""
+    settings = {}
+    for name, p in _simulate_parameters().items():
+        if p.kind is not inspect.Parameter.KEYWORD_ONLY or name in NOT_FORWARDED:
+            continue
+        settings[name] = sim_kwargs.get(name, p.default)
+    if settings.get("solver") is None:
+        settings["solver"] = default_solver()
+    return settings
+
+
+def _simulate_parameters():
+    return inspect.signature(simulate).parameters
+
+
+def check_points(model, names, points):
+    """Raise a ValueError for the first point whose values break a parameter rule."""
+    messages = [message for _, message, _ in model.violations()]
+    flags = np.asarray(_violation_flags(model, names, jnp.asarray(points)))
+    bad = np.argwhere(flags)
+    if bad.size:
+        i, r = bad[0]
+        where = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, points[i]))
+        raise ValueError(
+            f"Sweep point {i} ({where}) is invalid: {messages[r]}. "
+            f"{len(np.unique(bad[:, 0]))} of {points.shape[0]} points break a rule."
+        )
+
+
+@eqx.filter_jit
+def _violation_flags(model, names, points):
+    def one(row):
+        m = paths.replace(model, dict(zip(names, row)))
+        return jnp.stack([jnp.any(jnp.asarray(w)) for w, _, _ in m.violations()])
+
+    return jax.vmap(one)(points)
+
+
+def default_chunk_size(platform: str | None = None) -> int:
+    """Points per device per chunk when ``chunk_size`` is not given: 16 on CPU devices, 8 on
+    accelerators (README, 'Sweeps': why)."""
+    platform = jax.devices()[0].platform if platform is None else platform
+    return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
+
+
+def chunk_points(chunk_size, n_devices, n_points) -> int:
+    """Points per chunk: ``chunk_size`` (default `default_chunk_size`) per device, but a small
+    sweep is never padded beyond one round of the devices."""
+    if chunk_size is not None and (int(chunk_size) != chunk_size or chunk_size < 1):
+        raise ValueError(f"chunk_size must be a positive integer; got {chunk_size!r}.")
+    per_device = default_chunk_size() if chunk_size is None else int(chunk_size)
+    return max(1, min(per_device * n_devices, math.ceil(n_points / n_devices) * n_devices))

@@ -1,0 +1,145 @@
+"""`sweep`: its stages in order (arguments, output folder, kernel, chunks, dataset)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import jax
+import numpy as np
+
+from .. import Mechanism, _checks
+from . import arguments, dataset as _dataset, kernel, store
+from .progress import Progress
+
+
+def sweep(
+    model: Mechanism,
+    params: Mapping[str, object],
+    *,
+    metrics: Mapping[str, Callable] | None = None,
+    grid: bool = True,
+    t1: float = 0.2,
+    ts=None,
+    out: str | os.PathLike | None = None,
+    chunk_size: int | None = None,
+    progress: bool = True,
+    **simulate_kwargs,
+):
+    """Simulate ``model`` at many parameter values and return labelled metrics (how it runs, the
+    output folder and several hosts: `jaxbearing._sweep`'s doc).
+
+    Args:
+        model: a `Mechanism`; the swept parameters replace its values (`paths.replace`).
+        params: dotted parameter path -> 1-D values, e.g. ``{"bearing.clearance": [2e-5, 4e-5],
+            "impact.restitution": [0.7, 0.9]}``.
+        metrics: name -> function of a `Solution` returning a scalar, or a `metrics.WithModel`
+            (a function of the solution and the member's model, e.g. `life.metric`) (default
+            `jaxbearing.metrics.STANDARD`). Names must differ from the parameter paths and from
+            ``status``, ``failed``, ``point``.
+        grid: True: every combination of the values (dimensions in the order of ``params``).
+            False: a list of points, the i-th value of every parameter together (all arrays of
+            one length; dimension ``point``).
+        t1: final time [s] of every simulation.
+        ts: output times [s] the metrics see. Default: just what the metrics need: ``[t0, t1]``
+            when none reads the output samples (`metrics.STANDARD`, `metrics.SMOOTH` and
+            functions marked ``sample_free = True`` come from the solve's per-step records),
+            else ``linspace(t0, t1, 2001)`` (e.g. for `life.metric`).
+        out: folder to write to and resume from (see the package doc), or None.
+        chunk_size: points per device per chunk (default `default_chunk_size()`: 16 on CPU, 8
+            on accelerators; or the layout already in ``out``).
+        progress: show a progress bar over chunks (tqdm, else plain lines).
+        **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
+            max_steps, max_segments, adjoint, ...); ``throw`` and ``progress`` are set by the
+            sweep.
+
+    Returns:
+        `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =
+        successful, or `RAISED`; ``attrs["status_codes"]`` names them) and ``failed`` (bool). Grid: one
+        dimension and coordinate per parameter. List: dimension ``point``, the parameters as
+        coordinates along it. Attributes record t1, t0, ts, the tolerances and solver, every
+        model parameter (``model_parameters``), the model fingerprint, the package versions
+        (``versions``) and the failed members with their parameters (``failures``); the
+        returned object also carries timing of this call (``sweep_computed_points``,
+        ``sweep_wall_s``, ``sweep_chunk_s``), which is not written to ``results.nc``.
+    """
+    import xarray as xr  # noqa: F401  (fail early with a clear ImportError)
+
+    _checks.require_x64()
+    started = time.perf_counter()
+    request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs)
+    out = None if out is None else Path(out)
+    n_devices = jax.device_count()
+    chunk_points = arguments.chunk_points(chunk_size, n_devices, request.points.shape[0])
+    record = store.manifest(model, request)
+    metric_names = [name for name, _ in request.metric_items]
+    state = store.restore(out, record, chunk_size, chunk_points, n_devices, request.points, metric_names)
+    mesh = jax.make_mesh((n_devices,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
+    runner = kernel.ChunkRunner(model, request, mesh, math.ceil(state.chunk_points / n_devices) * n_devices)
+    computed, chunk_seconds = _compute(runner, request, state, out, metric_names, progress)
+    ds = _dataset.dataset(request, state, record)
+    _finish(ds, out, request.points.shape[0])
+    ds.attrs["sweep_computed_points"] = computed
+    ds.attrs["sweep_wall_s"] = time.perf_counter() - started
+    ds.attrs["sweep_chunk_s"] = np.asarray(chunk_seconds)
+    return ds
+
+
+def _compute(runner, request, state, out, metric_names, progress):
+    """Run every chunk not done yet, writing each as it finishes (process 0); returns (points
+    computed, seconds per chunk)."""
+    points, n_points = request.points, request.points.shape[0]
+    main = jax.process_index() == 0
+    n_chunks = math.ceil(n_points / state.chunk_points)
+    bar = Progress(n_chunks, int(state.done.sum()), enabled=progress and main)
+    chunk_seconds, computed = [], 0
+    try:
+        for k in np.flatnonzero(~state.done):
+            tic = time.perf_counter()
+            start, stop = k * state.chunk_points, min((k + 1) * state.chunk_points, n_points)
+            values, status, errors = _run_one(runner, k, points[start:stop])
+            state.values[start:stop], state.status[start:stop], state.errors[start:stop] = values, status, errors
+            if out is not None and main:
+                store.save_chunk(out / store.chunk_name(k), start, stop, points[start:stop], metric_names,
+                                 values, status, errors)  # fmt: skip
+            state.done[k] = True
+            computed += stop - start
+            chunk_seconds.append(time.perf_counter() - tic)
+            bar.update(stop - start, chunk_seconds[-1])
+    finally:
+        bar.close()
+    return computed, chunk_seconds
+
+
+def _run_one(runner, k, chunk):
+    """(values, status, errors) of chunk ``k``; a chunk that raises at run time is rerun point
+    by point (in a single process)."""
+    try:
+        values, status = runner(chunk)
+        return values, status, np.full(chunk.shape[0], "")
+    except kernel.RUNTIME_ERRORS as err:
+        if jax.process_count() > 1:  # the processes would no longer run the same program
+            raise
+        warnings.warn(
+            f"sweep: chunk {k} raised an error at run time ({kernel.first_line(err)}); "
+            "running its points one at a time to find the culprit(s).",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+        return runner.one_by_one(chunk)
+
+
+def _finish(ds, out, n_points):
+    """Write ``results.nc`` and warn about the failed members (process 0)."""
+    if jax.process_index() != 0:
+        return
+    if out is not None:
+        _dataset.write_results(ds, out / store.RESULTS_FILE)
+    failed = json.loads(ds.attrs["failures"])
+    if failed:
+        warnings.warn(_dataset.failure_report(failed, n_points), RuntimeWarning, stacklevel=3)

@@ -1,0 +1,78 @@
+"""Reports on simulations of the paper's impact slider–crank (Xu 2014, Sect. 3; docs/model.md,
+'The paper's case'). NumPy throughout: call them on concrete results, not under ``jit``.
+
+Four rooms, one job each:
+
+- `_series`: named time series of a `Solution` (`series`), peaks over a time window (`peak`),
+  contact onsets and contact intervals. They accept a `Solution` or any object with the same
+  fields (or, where noted, the dict that `series` returns), so they can be tested on hand-made
+  inputs.
+- `_paper`: the paper's Table 5 read off a simulation (`table5`, `table5_rms`,
+  `table5_mismatches`, `table5_summary`), a JSON-ready summary (`summarize`, `life_summary`) and
+  their text (`format_summary`, `format_table5`). The paper's numbers (Table 5, the bodies, the
+  figure window) live in `jaxbearing.cases` (`cases.TABLE5`, `cases.FIGURE_WINDOW`).
+- `_figures`: the paper's Figs. 12–15 as PNGs (`plot_figures`).
+- `_writers`: CSV time series and ``summary.json``; every file (figures too) is written
+  atomically with `jaxbearing._files`, so an interrupted run leaves the previous file or the new
+  one, never a truncated one.
+
+Units are SI throughout (s, m, m/s, m/s^2, N) except on figure axes, which show displacements in
+mm. Series names (and CSV columns, which carry the unit as a suffix):
+
+    t [s]; slider_x, target_x [m] (x of the centroid, along the slide);
+    slider_v, target_v [m/s]; slider_a, target_a [m/s^2];
+    contact_force [N] (normal force of the slider–target contact, 0 without impact);
+    bearing_fx, bearing_fy, bearing_f [N] (resultant of the ball loads on the outer race, the
+    crank, and its magnitude |F|); ball1 ... ballN [N] (ball 1 at +x at t = 0, numbered
+    counter-clockwise); penetration [m] (of the slider–target circles; negative when apart).
+"""
+
+from ._figures import plot_figures
+from ._paper import (
+    LOADED_THRESHOLD,
+    PEAK_FROM,
+    format_summary,
+    format_table5,
+    life_summary,
+    summarize,
+    table5,
+    table5_mismatches,
+    table5_rms,
+    table5_summary,
+)
+from ._series import (
+    UNITS,
+    Peak,
+    ball_keys,
+    contact_intervals,
+    first_contact,
+    onsets,
+    peak,
+    series,
+)
+from ._writers import csv_columns, write_csv, write_json
+
+__all__ = [
+    "LOADED_THRESHOLD",
+    "PEAK_FROM",
+    "UNITS",
+    "Peak",
+    "ball_keys",
+    "contact_intervals",
+    "csv_columns",
+    "first_contact",
+    "format_summary",
+    "format_table5",
+    "life_summary",
+    "onsets",
+    "peak",
+    "plot_figures",
+    "series",
+    "summarize",
+    "table5",
+    "table5_mismatches",
+    "table5_rms",
+    "table5_summary",
+    "write_csv",
+    "write_json",
+]

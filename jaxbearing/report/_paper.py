@@ -1,0 +1,192 @@
+"""The paper's Table 5 read off a simulation, JSON-ready summaries of a run and their text."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
+from ..metrics import T_MIN
+from ._series import Peak, as_series, ball_keys, contact_intervals, first_contact, onsets
+from ._series import peak, series
+
+PEAK_FROM = T_MIN  # [s] peaks are taken after the bearing's start-up transient (docs/model.md)
+LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
+
+
+def table5(data, times=TABLE5_TIMES) -> np.ndarray:
+    """Ball loads [N] at the times of the paper's Table 5, shape (N_b, len(times)), ball 1 first.
+
+    Linear interpolation between samples (exact where a time is a sample); NaN for times outside
+    the sampled span. Compare with `cases.TABLE5` on a run *without* impact.
+    """
+    data = as_series(data)
+    t = np.asarray(data["t"], dtype=float)
+    times = np.asarray(times, dtype=float)
+    inside = (times >= t[0] - 1e-12) & (times <= t[-1] + 1e-12)
+    rows = [
+        np.where(inside, np.interp(times, t, np.asarray(data[k], dtype=float)), np.nan)
+        for k in ball_keys(data)
+    ]
+    return np.array(rows)
+
+
+def table5_rms(simulated, paper=TABLE5) -> float:
+    """RMS difference [N] between simulated and paper ball loads over the entries where the
+    simulated value is finite (all 40 for a run to t >= 0.12 s); NaN if none is."""
+    diff = np.asarray(simulated, dtype=float) - np.asarray(paper, dtype=float)
+    diff = diff[np.isfinite(diff)]
+    return float(np.sqrt(np.mean(diff**2))) if diff.size else math.nan
+
+
+def table5_mismatches(simulated, paper=TABLE5, threshold: float = LOADED_THRESHOLD) -> int:
+    """Number of (finite) entries where one table has the ball loaded (>= ``threshold`` [N]) and
+    the other has it unloaded."""
+    simulated, paper = np.asarray(simulated, dtype=float), np.asarray(paper, dtype=float)
+    finite = np.isfinite(simulated)
+    return int(np.sum(finite & ((simulated >= threshold) != (paper >= threshold))))
+
+
+def table5_summary(data, times=TABLE5_TIMES, paper=TABLE5) -> dict:
+    """JSON-ready comparison with Table 5: ``times_s``, ``paper_N`` and ``simulated_N`` (lists
+    of rows, ball 1 first), ``rms_N``, ``loaded_state_mismatches``, ``entries_compared`` and
+    ``loaded_threshold_N``."""
+    sim = table5(data, times)
+    return {
+        "times_s": [float(x) for x in times],
+        "paper_N": np.asarray(paper, dtype=float).tolist(),
+        "simulated_N": sim.tolist(),
+        "rms_N": table5_rms(sim, paper),
+        "loaded_state_mismatches": table5_mismatches(sim, paper),
+        "entries_compared": int(np.isfinite(sim).sum()),
+        "loaded_threshold_N": LOADED_THRESHOLD,
+    }
+
+
+def summarize(sol, t_min: float = PEAK_FROM) -> dict:
+    """JSON-ready summary of one simulation (numbers only, no timings).
+
+    Keys (units in the suffix): ``t_final_s``, ``samples``, ``first_contact_time_s``,
+    ``first_contact_approach_speed_m_per_s``, ``contact_count`` (onsets), ``onsets`` (list of
+    ``[time_s, approach_speed_m_per_s]``), ``contact_intervals`` (sampled ``[start_s, end_s,
+    peak_N]``), ``peak_impact_force_N`` / ``_time_s`` (whole run), ``peak_bearing_force_N`` /
+    ``_time_s`` (|F| over t >= ``t_min``), ``peak_ball_load_N`` / ``_time_s`` /
+    ``peak_ball_load_ball`` (over t >= ``t_min``), ``peak_window_from_s``, ``max_drift``
+    (max |Phi| [m or rad]), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
+    """
+    data = series(sol)
+    times, speeds = onsets(sol)
+    first_t, first_v = first_contact(sol)
+    impact = peak(data, "contact_force")
+    bearing = (
+        peak(data, "bearing_f", t_min) if "bearing_f" in data else Peak(math.nan, math.nan, None)
+    )
+    ball = peak(data, "ball_loads", t_min)
+    drift = np.asarray(sol.drift, dtype=float)
+    return {
+        "t_final_s": float(sol.t_final),
+        "samples": int(data["t"].size),
+        "first_contact_time_s": first_t,
+        "first_contact_approach_speed_m_per_s": first_v,
+        "contact_count": int(times.size),
+        "onsets": [[float(a), float(b)] for a, b in zip(times, speeds)],
+        "contact_intervals": [list(x) for x in contact_intervals(data)],
+        "peak_impact_force_N": impact.value,
+        "peak_impact_force_time_s": impact.time,
+        "peak_bearing_force_N": bearing.value,
+        "peak_bearing_force_time_s": bearing.time,
+        "peak_ball_load_N": ball.value,
+        "peak_ball_load_time_s": ball.time,
+        "peak_ball_load_ball": int(ball.key[4:]) if ball.key else None,
+        "peak_window_from_s": float(t_min),
+        "max_drift": float(np.nanmax(drift)) if np.isfinite(drift).any() else math.nan,
+        "num_steps": int(sol.num_steps),
+        "num_rejected_steps": int(sol.num_rejected_steps),
+        "num_segments": int(sol.num_segments),
+    }
+
+
+def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
+    """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
+    with the case's groove ratios, in millions of relative revolutions and hours."""
+    from .. import life
+
+    iso = life.iso_life(sol, model, t_min=t_min)
+    lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
+    return {
+        "load_rating_N": float(iso.load_rating),
+        "equivalent_load_N": float(iso.equivalent_load),
+        "l10_iso_mrev": float(iso.l10),
+        "l10_iso_hours": float(iso.l10_hours),
+        "l10_lp_mrev": float(lp.l10),
+        "l10_lp_hours": float(lp.l10_hours),
+    }
+
+
+
+def _fmt(x, spec: str) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def format_summary(label: str, s: Mapping) -> str:
+    """Human-readable lines for a `summarize` dict (plus ``wall_*_s`` timings when present)."""
+    lines = [f"== {label} =="]
+    if s.get("contact_count"):
+        speed = _fmt(s["first_contact_approach_speed_m_per_s"], ".4f")
+        lines.append(
+            f"  first contact        t = {_fmt(s['first_contact_time_s'], '.6f')} s, "
+            f"approach speed {speed} m/s"
+        )
+        lines.append(f"  contacts (onsets)    {s['contact_count']}")
+        lines.append(
+            f"  peak impact force    {_fmt(s['peak_impact_force_N'], '.1f')} N at t = "
+            f"{_fmt(s['peak_impact_force_time_s'], '.6f')} s"
+        )
+    else:
+        lines.append("  contacts (onsets)    0")
+    t_min = s.get("peak_window_from_s", PEAK_FROM)
+    lines.append(
+        f"  peak bearing |F|     {_fmt(s['peak_bearing_force_N'], '.1f')} N at t = "
+        f"{_fmt(s['peak_bearing_force_time_s'], '.6f')} s  (t >= {t_min:g} s)"
+    )
+    lines.append(
+        f"  peak ball load       {_fmt(s['peak_ball_load_N'], '.1f')} N, "
+        f"ball {s['peak_ball_load_ball']} at t = {_fmt(s['peak_ball_load_time_s'], '.6f')} s"
+        f"  (t >= {t_min:g} s)"
+    )
+    lines.append(f"  max constraint drift {_fmt(s['max_drift'], '.3e')}")
+    lines.append(
+        f"  steps                {s['num_steps']} ({s['num_rejected_steps']} rejected), "
+        f"{s['num_segments']} segments"
+    )
+    if "l10_iso_hours" in s:
+        lines.append(
+            f"  bearing life L10     ISO 281 {s['l10_iso_hours']:.3g} h (C_r {s['load_rating_N']:.0f} N, "
+            f"P {s['equivalent_load_N']:.1f} N), Lundberg-Palmgren {s['l10_lp_hours']:.3g} h"
+        )
+    if "wall_first_s" in s:
+        second = s.get("wall_second_s")
+        lines.append(
+            f"  wall time            {s['wall_first_s']:.2f} s (compile + run)"
+            + (f", {second:.2f} s (second run, compiled)" if second is not None else "")
+        )
+    return "\n".join(lines)
+
+
+def format_table5(t5: Mapping) -> str:
+    """Table 5 side by side, "paper / simulated" [N] per ball and time, with RMS and mismatches."""
+    times = t5["times_s"]
+    head = "ball " + "".join(f"{f't = {t:g} s':>18}" for t in times)
+    lines = ["Table 5 (without impact): paper / simulated ball load [N]", head]
+    for r, (p_row, s_row) in enumerate(zip(t5["paper_N"], t5["simulated_N"])):
+        cells = "".join(f"{_fmt(p, '.1f'):>8} / {_fmt(s, '7.1f'):>7}" for p, s in zip(p_row, s_row))
+        lines.append(f"{r + 1:>4} {cells}")
+    lines.append(
+        f"RMS difference {_fmt(t5['rms_N'], '.2f')} N over {t5['entries_compared']} entries; "
+        f"loaded/unloaded state differs in {t5['loaded_state_mismatches']} "
+        f"(loaded: >= {t5['loaded_threshold_N']} N)"
+    )
+    return "\n".join(lines)
+
