@@ -48,6 +48,7 @@ EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
+STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
 WINDOW_START = 0.04  # [s] start of the metrics' default window (`metrics.T_MIN`); always a stop
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
@@ -64,8 +65,9 @@ class RESULTS(diffrax.RESULTS):
     """diffrax's result codes plus the ones of the segmented solve."""
 
     max_segments_reached = (
-        "More contact events than max_segments allow (each onset and each separation starts a "
-        "segment). Increase `max_segments`."
+        "More segments than max_segments allow (each contact onset and separation, each ball "
+        "engagement and release, and with segment_steps each pause starts one). Increase "
+        "`max_segments`."
     )
 
 
@@ -272,6 +274,7 @@ def simulate(
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
     max_steps: int = 200_000,
     max_segments: int | None = None,
+    segment_steps: int | None = None,
     time_cells: int = 64,
     window_edges: tuple = (),
     output_block: int | None = None,
@@ -291,10 +294,19 @@ def simulate(
         stepsize_controller: overrides the default `PIDController(rtol, atol, pcoeff=0.3,
             icoeff=0.3)` (on the paper's case with impact the PI terms halve the rejected steps
             of Tsit5 against the plain I controller: 2187 against 4917, 8 % fewer steps).
-        max_steps: step limit of each segment.
-        max_segments: events allowed (each contact onset and separation, and each engagement
-            and release of a paper-force ball, starts a segment); the run fails if it needs
-            more. Default: `default_max_segments`.
+        max_steps: step limit of each segment (between events and stops; its pauses count
+            together).
+        max_segments: segments allowed beyond the stops (each contact onset and separation,
+            each engagement and release of a paper-force ball, and each pause starts one); the
+            run fails if it needs more. Default: `default_max_segments`.
+        segment_steps: steps after which a segment pauses; the next iteration of the segment
+            loop resumes it with the step-size controller's state and proposed step, so the
+            solution is the same, to the last bit, as without pauses. Under `jax.vmap` the
+            members run in lock-step, segment by segment: with pauses a member that reached an
+            event waits for the others at most ``segment_steps`` steps, not until the longest
+            segment of the batch ends, which is what makes batches (sweeps) fast. None (the
+            default): no pauses, the cheapest for a single run. `jaxbearing.sweep` pauses
+            every ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver (measured: about 1.3 steps).
@@ -321,8 +333,10 @@ def simulate(
     _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
     t0, t1 = _checked_span(t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
+    if segment_steps is not None and not 1 <= segment_steps:
+        raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     if max_segments is None:
-        max_segments = default_max_segments(model, t0, t1)
+        max_segments = default_max_segments(model, t0, t1, segment_steps)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
@@ -348,6 +362,7 @@ def simulate(
         stepsize_controller,
         max_steps,
         max_segments,
+        segment_steps,
         time_cells,
         stops,
         output_block,
@@ -358,15 +373,19 @@ def simulate(
     return sol
 
 
-def default_max_segments(model: Mechanism, t0, t1) -> int:
-    """Events `simulate` allows by default: 1 for a model without contacts or paper-force balls,
-    else 64 + `EVENT_RATE` (t1 - t0) rounded up to a power of two, so that runs of similar spans
-    share one compiled solve (a traced span counts as 1 s). README gives the event counts of the
-    paper's case."""
-    if not model.contacts and not model.n_switched_balls:
-        return 1
+def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = None) -> int:
+    """Segments `simulate` allows by default beyond its stops: for events, 1 for a model without
+    contacts or paper-force balls, else 64 + `EVENT_RATE` (t1 - t0); with ``segment_steps``, for
+    pauses, `STEP_RATE` (t1 - t0) / segment_steps more. Rounded up to a power of two, so that
+    runs of similar spans share one compiled solve (a traced span counts as 1 s). README gives
+    the event counts of the paper's case."""
+    events = bool(model.contacts) or bool(model.n_switched_balls)
     span = float(t1) - float(t0) if _concrete(t1) and _concrete(t0) else 1.0
-    return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
+    span = max(span, 0.0)
+    allowed = (64 + EVENT_RATE * span if events else 1) + (
+        0 if segment_steps is None else STEP_RATE * span / segment_steps
+    )
+    return 1 << math.ceil(math.log2(allowed))
 
 
 _NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
@@ -642,6 +661,28 @@ def _with_root_tolerances(solver, controller):
     )
 
 
+class _Resumable(diffrax.AbstractStepSizeController):
+    """The user's step-size controller, remembering the step it proposes next: state (inner
+    state, next step [s]). A paused segment hands both to the next solve, which so continues
+    with the very steps it would have taken without the pause."""
+
+    controller: diffrax.AbstractStepSizeController
+
+    def wrap(self, direction):
+        return _Resumable(self.controller.wrap(direction))
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        tnext, inner = self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)
+        return tnext, (inner, tnext - t0)
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        inner, _ = controller_state
+        keep, tprev, tnext, jump, inner, result = self.controller.adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, inner
+        )
+        return keep, tprev, tnext, jump, (inner, tnext - tprev), result
+
+
 def _stops(t0, t1, time_cells, extra):
     """Times at which segments end, increasing: the ends of the ``time_cells`` equal cells of
     [t0, t1] and the ``extra`` times inside (t0, t1). A static count: the extra times outside,
@@ -683,11 +724,16 @@ class _Carry(NamedTuple):
     result: RESULTS
     steps: jax.Array
     rejected: jax.Array
+    control: object  # state of the step-size controller (`_Resumable`) where a segment paused
+    resume: jax.Array  # the next segment continues a paused one
+    since: jax.Array  # steps since the last segment end that was not a pause
+    began: jax.Array  # where the segment that paused began [s]
+    accepted: jax.Array  # steps it accepted so far
 
 
 @jit
 def _simulate(
-    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, extra_stops, block,
+    model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells, extra_stops, block,
     progress, adjoint,
 ):
     rules = model.violations()
@@ -735,6 +781,8 @@ def _simulate(
         )
     term = diffrax.ODETerm(vector_field)
     recording = _Recording(_for_adjoint(solver, adjoint), model)
+    if segment_steps is not None:
+        controller = _Resumable(controller)
     stops = _stops(t0, t1, time_cells, extra_stops)
     n_stops = stops.shape[0]
 
@@ -749,31 +797,55 @@ def _simulate(
             else _Progress(t_start=c.t, t_stop=t_stop, t0=t0, t1=t1, label=progress)
         )
         args = (c.approach, c.in_contact, c.engaged)
+        dt0 = jnp.minimum(c.dt, t_stop - c.t)
+        resumed = {}
+        if segment_steps is not None:  # a paused segment goes on with its controller's state
+            fresh = controller.init(term, c.t, t_stop, c.y, dt0, args, recording.func, None)[1]
+            state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
+            dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
+            resumed = dict(controller_state=jax.lax.stop_gradient(state))
         sol = diffrax.diffeqsolve(
             term,
             recording,
             c.t,
             t_stop,
-            jnp.minimum(c.dt, t_stop - c.t),
+            dt0,
             c.y,
             args=args,
             saveat=diffrax.SaveAt(
                 subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)],
                 solver_state=True,
+                controller_state=segment_steps is not None,
             ),
             stepsize_controller=controller,
             event=event,
-            max_steps=max_steps,
+            max_steps=max_steps if segment_steps is None else segment_steps,
             throw=False,
             progress_meter=meter,
             adjoint=adjoint,
+            **resumed,
         )
         (_, t_end), (ys, y_end) = sol.ts, sol.ys
         t_end, y_end = t_end[0], y_end[0]
-        ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
+        _, stats, last = sol.solver_state
+        paused, control, since = jnp.asarray(False), None, c.since
+        if segment_steps is not None:
+            # a segment pauses at segment_steps steps; one that took max_steps since its start
+            # has failed
+            since = c.since + sol.stats["num_steps"]
+            paused = (sol.result == diffrax.RESULTS.max_steps_reached) & (since < max_steps)
+            control = jax.lax.stop_gradient(sol.controller_state)
+        if event is not None:
+            # a segment that did not stop at an event ends where its latest accepted step does.
+            # Under vmap, when another member stopped at an event, diffrax moves every member
+            # without one to the end of its last *attempted* step (possibly a rejected one, at a
+            # pause) and interpolates its state there
+            settled = sol.result != diffrax.RESULTS.event_occurred
+            t_end = jnp.where(settled, last[1], t_end)
+            y_end = jnp.where(settled, last[2]["y1"], y_end)
+        ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
         hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
         # stats of the segment: its accepted steps, the last one only up to t_end (an event)
-        _, stats, last = sol.solver_state
         peaks, integrals = _add(stats, _close(model, solver, last, t_end, args))
         # outputs of this segment: its block's times in [t_start, t_end], each written once
         mine = save_ts <= t_end  # False for NaN
@@ -805,16 +877,23 @@ def _simulate(
         steps = c.steps + jnp.where(c.done, 0, sol.stats["num_steps"])
         rejected = c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0))
         t_reached = jnp.where(c.done, c.t, t_end)
-        cell_done = ok & ~hit
+        cell_done = ok & ~hit & ~paused
         finished = c.done | ~ok | (cell_done & ((c.cell == n_stops - 1) | (t_stop >= t1)))
         # the next segment starts with the mean accepted step of this one (no step-size search;
         # no gradient through the step sizes, as in diffrax's controllers)
-        accepted = sol.stats["num_accepted_steps"]
-        mean_step = jax.lax.stop_gradient((t_end - c.t) / jnp.maximum(accepted, 1))
+        # (over the whole segment: its paused parts count from where it began)
+        accepted = sol.stats["num_accepted_steps"] + jnp.where(c.resume, c.accepted, 0)
+        began = jnp.where(c.resume, c.began, c.t)
+        mean_step = jax.lax.stop_gradient((t_end - began) / jnp.maximum(accepted, 1))
         carry = _Carry(
             t=jnp.where(finished, t1, t_end),
             cell=jnp.where(cell_done & ~finished, c.cell + 1, c.cell),
             dt=jnp.where(c.done | (accepted == 0), c.dt, mean_step),
+            control=control,
+            resume=paused & ~finished,
+            since=jnp.where(paused, since, 0),
+            began=began,
+            accepted=accepted,
             y=jnp.where(c.done, c.y, y_end),
             approach=approach,
             in_contact=in_contact,
@@ -850,7 +929,16 @@ def _simulate(
         result=RESULTS.successful,
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
+        control=None,
+        resume=jnp.asarray(False),
+        since=jnp.asarray(0),
+        began=t0,
+        accepted=jnp.asarray(0),
     )
+    if segment_steps is not None:
+        args0 = (init.approach, init.in_contact, init.engaged)
+        control = controller.init(term, t0, t1, y0, init.dt, args0, recording.func, None)[1]
+        init = init._replace(control=jax.tree_util.tree_map(jnp.asarray, control))
     final, records = jax.lax.scan(segment, init, jnp.arange(n_stops + max_segments))
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))

@@ -29,8 +29,11 @@ How it runs
   All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
   of the same model structure, metrics and solver settings in the same process). Memory stays
   bounded by the chunk, whatever the number of points.
-- Under vmap a solver loop runs until its slowest member finishes: points that need many steps
-  slow down their chunk, not the others.
+- Under vmap the members run in lock-step, segment by segment. Members pause every
+  `SEGMENT_STEPS` steps (``simulate(..., segment_steps=...)``, a pause resumes exactly: a member's
+  result is that of the point run alone, to the last bit), so at each of its events a member
+  waits for the others at most that many steps; a chunk still runs until its slowest member
+  finishes: points that need many steps slow down their chunk, not the others.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
   need: ``[t0, t1]`` when every metric comes from the solve's per-step records
   (`Solution.segments`: `metrics.STANDARD`, `metrics.SMOOTH`, and any function marked with the
@@ -105,12 +108,13 @@ files, resume), `dataset` (the Dataset, ``results.nc``, the failure report), `pr
 bar) and `driver` (`sweep`, a list of these stages).
 """
 
-from .arguments import DEFAULT_SAMPLES, default_chunk_size, needs_samples
+from .arguments import DEFAULT_SAMPLES, SEGMENT_STEPS, default_chunk_size, needs_samples
 from .driver import sweep
 from .kernel import RAISED
 from .store import MANIFEST, RESULTS_FILE
 
 __all__ = [
+    "SEGMENT_STEPS",
     "DEFAULT_SAMPLES",
     "MANIFEST",
     "RAISED",

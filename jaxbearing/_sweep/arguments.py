@@ -18,6 +18,7 @@ from .. import Mechanism, default_max_segments, default_solver, metrics as _metr
 
 DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
+SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: measured 4 to 64)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 RESERVED = ("status", "failed", "point")
@@ -53,8 +54,9 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     sim_kwargs = simulate_kwargs_of(simulate_kwargs)
     t1 = float(t1)
     t0 = float(sim_kwargs.get("t0", 0.0))
+    sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
     if sim_kwargs.get("max_segments") is None:
-        sim_kwargs["max_segments"] = default_max_segments(model, t0, t1)
+        sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
     check_points(model, names, points)
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, output_times(items, t0, t1, ts), sim_kwargs)
 
