@@ -17,7 +17,7 @@ import numpy as np
 from .. import Mechanism, default_max_segments, default_solver, metrics as _metrics, paths, simulate
 
 DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
-DEFAULT_CHUNK_SIZE_ACCELERATOR = 8
+DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
 SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: measured 4 to 64)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
@@ -203,8 +203,8 @@ def _violation_flags(model, names, points):
 
 
 def default_chunk_size(platform: str | None = None) -> int:
-    """Points per device per chunk when ``chunk_size`` is not given: 16 on CPU devices, 8 on
-    accelerators (README, 'Sweeps': why)."""
+    """Points per device per chunk when ``chunk_size`` is not given: 16 on CPU devices, 1024 on
+    accelerators (measured: README, 'Performance and solvers' and 'Where it runs')."""
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
 
