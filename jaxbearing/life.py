@@ -48,7 +48,7 @@ from .laws import bearing as bearing_law
 from .metrics import WithModel, check_window
 from .multibody.bodies import GROUND
 from .multibody.mechanism import Mechanism
-from .simulate import Solution
+from .solution import Solution
 
 __all__ = [
     "B_M",

@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .simulate import (
+from .solution import (
     FORCE_SCALE,
     INT_BALL_LOAD_POWER,
     INT_BEARING_FORCE_POWER,

@@ -114,7 +114,8 @@ import numpy as np
 
 from . import _checks, metrics as _metrics, paths, provenance
 from .multibody.mechanism import Mechanism
-from .simulate import RESULTS, default_max_segments, default_solver, simulate
+from .solution import RESULTS
+from .solve import default_max_segments, default_solver, simulate
 
 __all__ = ["sweep", "RAISED", "default_chunk_size", "DEFAULT_SAMPLES", "MANIFEST", "RESULTS_FILE"]
 

@@ -35,7 +35,7 @@ import optax
 
 from . import paths as _paths
 from .compile import jit
-from .simulate import simulate
+from .solve import simulate
 
 
 def _values(model, names: Sequence[str]) -> jax.Array:
