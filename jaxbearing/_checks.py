@@ -124,11 +124,11 @@ def in_half_open_interval(name: str, value, low: float, high: float):
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
 
 
-def material(youngs_modulus, poisson_ratio):
-    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5)."""
+def material(youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisson_name="poisson_ratio"):
+    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5), named as given."""
     return [
-        positive("youngs_modulus", youngs_modulus, "Pa"),
-        in_open_interval("poisson_ratio", poisson_ratio, 0.0, 0.5),
+        positive(youngs_name, youngs_modulus, "Pa"),
+        in_open_interval(poisson_name, poisson_ratio, 0.0, 0.5),
     ]
 
 
