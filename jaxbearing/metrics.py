@@ -63,8 +63,7 @@ from .solution import (
     Solution,
 )
 
-T_MIN = WINDOW_START  # [s] start of the default window (0.04 s), a segment end of every solve
-TARGET_X = 9  # coordinate of the target's x in `cases.xu2014` (body 3)
+T_MIN = WINDOW_START  # [s] start of the default window, a segment end of every solve
 
 
 @dataclasses.dataclass(frozen=True)
@@ -226,10 +225,17 @@ def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
     return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
 
 
-def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=TARGET_X) -> jax.Array:
-    """Largest |q_c(t) - q_c(t0)| [m] of one coordinate in the window (default: the xu2014
-    target's x), over each solver step's end and Gauss points (exact there; `SegmentStats`)."""
-    return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
+def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=None) -> jax.Array:
+    """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, over each solver
+    step's end and Gauss points (exact there; `SegmentStats`). Default coordinate: the impact
+    target's x (`Solution.target`; in `cases.xu2014` the target, body 3); a model without
+    impact contact has no target, and the value is 0 (nothing is struck), as
+    `peak_impact_force`'s."""
+    if coordinate is not None:
+        return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
+    if sol.target is not None:
+        return _peak(sol, PEAK_DISPLACEMENT + sol.target, t_min, t_max)
+    return 0.0 * _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)  # NaN for a window without value
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:

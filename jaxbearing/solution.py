@@ -107,6 +107,9 @@ class Solution(eqx.Module):
         t_final: time reached [s] (t1 unless the solve failed).
         num_steps, num_rejected_steps: solver steps over all segments.
         num_segments: number of segments used (time cells plus contact events).
+        target: index in q of the x coordinate of the impact target, body k of the model's
+            first contact (`CircleContact`: the body its normal force pushes along +n); None
+            for a model without impact contact (static).
     """
 
     ts: jax.Array
@@ -127,3 +130,4 @@ class Solution(eqx.Module):
     num_steps: jax.Array
     num_rejected_steps: jax.Array
     num_segments: jax.Array
+    target: int | None = eqx.field(static=True, default=None)

@@ -336,6 +336,7 @@ def _outputs(
         num_steps=steps,
         num_rejected_steps=rejected,
         num_segments=n_used,
+        target=3 * model.contacts[0].body_k if model.contacts else None,
     )
 
 
