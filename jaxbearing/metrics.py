@@ -81,17 +81,33 @@ class WithModel:
 
 
 def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside (for
-    metrics of sampled series, such as `jaxbearing.life`'s); checked by `check_window` (a
-    window without output times)."""
-    inside = ts >= t_min
-    if t_max is not None:
-        inside = inside & (ts <= t_max)
-    dt = jnp.diff(ts)
-    w = jnp.zeros_like(ts).at[:-1].add(0.5 * dt).at[1:].add(0.5 * dt)
-    w = jnp.where(inside, w, 0.0)
+    """Weights [s] of the output times over the window [t_min, t_max] (`window_weights`), for
+    metrics of sampled series; checked by `check_window` (a window without output times)."""
+    lo = -jnp.inf if t_min is None else t_min
+    w = window_weights(ts, lo, jnp.inf if t_max is None else t_max)
     check_window(ts, w, t_min, t_max)
     return w
+
+
+def window_weights(ts, lo, hi) -> jax.Array:
+    """Weights w [s] with sum_i w_i f(t_i) = the integral over [lo, hi] of the piecewise-linear
+    interpolant of the samples f(t_i) (trapezoid rule, each interval cut at the window's edges).
+
+    So a function linear between samples integrates exactly, whether the edges fall on samples
+    (then it is the trapezoid rule over the intervals inside) or between them (the part of an
+    interval inside counts by the interpolant there); samples outside the window carry weight
+    only through an interval that the window cuts. One rule for `window` and the life's
+    revolution weights (`jaxbearing.life`). ``lo``, ``hi`` may be infinite; ts (T,)
+    non-decreasing [s]."""
+    t_a, t_b = ts[:-1], ts[1:]
+    a, b = jnp.clip(t_a, lo, hi), jnp.clip(t_b, lo, hi)
+    length = jnp.maximum(b - a, 0.0)
+    h = t_b - t_a
+    safe_h = jnp.where(h > 0.0, h, 1.0)
+    mid = 0.5 * (a + b)
+    left = jnp.where(h > 0.0, length * (t_b - mid) / safe_h, 0.0)
+    right = jnp.where(h > 0.0, length * (mid - t_a) / safe_h, 0.0)
+    return jnp.zeros_like(ts).at[:-1].add(left).at[1:].add(right)
 
 
 def check_window(ts, weights, t_min, t_max, need="one"):

@@ -21,9 +21,11 @@ Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundbergâ€
   of relative revolutions. A load carried while the rings do not turn relative to each other
   does not count. Short impacts count by the revolutions turned while they last (the
   standard's convention for variable loads), not as extra stress cycles.
-- **Window.** Samples with ``t_min <= t <= t_max`` (default t >= 0.04 s, after the start-up
-  transient of `cases.xu2014`); the trapezoid rule runs over the intervals whose two ends are
-  inside, so the result does not depend on how the output times are spaced.
+- **Window.** [t_min, t_max] (default t >= 0.04 s, after the start-up transient of
+  `cases.xu2014`); the weights integrate the samples' piecewise-linear interpolant over the
+  window exactly, edges between samples included (`metrics.window_weights`, the rule of
+  `metrics.window` too), so the result does not depend on how the output times fall on the
+  edges.
 - **Hours.** L10h = 1e6 L10 / (60 n), n the mean relative speed [rpm] over the window.
 - **Units.** Inputs in SI (m, rad, N, s, rad/s); the standard's formulas run in N and mm inside.
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import _checks
 from .._checks import is_concrete
-from ..metrics import check_window
+from ..metrics import check_window, window_weights
 from ..solution import WINDOW_START
 
 T_MIN = WINDOW_START  # [s] start of the default window (as in `jaxbearing.metrics`)
@@ -101,7 +101,7 @@ def _validate_history(
                 f"{label} must have shape ({want}) (one row per output time); got {arr.shape}."
             )
     if not is_concrete(ts, rel, series, t_min, t_max):
-        check_window(ts, _trapezoid(ts, *_bounds(t_min, t_max)), t_min, t_max, need="two")
+        check_window(ts, window_weights(ts, *_bounds(t_min, t_max)), t_min, t_max, need="two")
         return
     t, r = np.asarray(ts), np.asarray(rel)
     rules = [
@@ -118,7 +118,7 @@ def _validate_history(
     lo, hi = (float(b) for b in _bounds(t_min, t_max))
     inside = (t >= lo) & (t <= hi)
     pairs = inside[:-1] & inside[1:]
-    check_window(ts, _trapezoid(ts, lo, hi), t_min, t_max, need="two")
+    check_window(ts, window_weights(ts, lo, hi), t_min, t_max, need="two")
     if rotation and not np.any(pairs & ((r[:-1] != 0.0) | (r[1:] != 0.0))):
         raise ValueError(
             "the rings must turn relative to each other inside the window (relative_speed is 0 "
@@ -223,17 +223,10 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
 # --------------------------------------------------------------------------------------------
 
 
-def _trapezoid(ts, lo, hi):
-    """Trapezoid weights [s] over the intervals whose two ends lie in [lo, hi]."""
-    inside = (ts >= lo) & (ts <= hi)
-    half = 0.5 * jnp.where(inside[:-1] & inside[1:], jnp.diff(ts), 0.0)
-    return jnp.zeros_like(ts).at[:-1].add(half).at[1:].add(half)
-
-
 @jax.jit
 def _weights(ts, relative_speed, lo, hi):
     """(trapezoid weights [s], revolution weights [rev]) of the output times."""
-    trap = _trapezoid(ts, lo, hi)
+    trap = window_weights(ts, lo, hi)
     return trap, trap * jnp.abs(relative_speed) / (2.0 * jnp.pi)
 
 
