@@ -21,8 +21,8 @@ Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundbergâ€
   of relative revolutions. A load carried while the rings do not turn relative to each other
   does not count. Short impacts count by the revolutions turned while they last (the
   standard's convention for variable loads), not as extra stress cycles.
-- **Window.** [t_min, t_max] (default t >= 0.04 s, after the start-up transient of
-  `cases.xu2014`); the weights integrate the samples' piecewise-linear interpolant over the
+- **Window.** [t_min, t_max] (default t >= `T_MIN`, which is `solution.WINDOW_START`, after
+  the start-up transient of `cases.xu2014`); the weights integrate the samples' piecewise-linear interpolant over the
   window exactly, edges between samples included (`metrics.window_weights`, the rule of
   `metrics.window` too), so the result does not depend on how the output times fall on the
   edges.
