@@ -34,23 +34,25 @@ checked here.
 """
 
 from ._formulas import (
-    B_M,
-    FC_RATIO,
-    FC_TABLE,
-    ISO_REDUCTION,
     T_MIN,
     ball_equivalent_load,
-    ball_race_load_ratings,
     bearing_life,
-    dynamic_load_rating,
     equivalent_load,
     life_hours,
-    load_rating_factor,
     mean_speed_rpm,
     rating_life,
     revolution_weights,
     ring_equivalent_load,
     ring_life,
+)
+from ._ratings import (
+    B_M,
+    FC_RATIO,
+    FC_TABLE,
+    ISO_REDUCTION,
+    ball_race_load_ratings,
+    dynamic_load_rating,
+    load_rating_factor,
 )
 from ._solution import (
     LPLife,

@@ -18,8 +18,6 @@ from ..multibody.bodies import GROUND
 from ..multibody.mechanism import Mechanism
 from ..solution import Solution
 from ._formulas import (
-    B_M,
-    ISO_REDUCTION,
     T_MIN,
     _bounds,
     _combine,
@@ -27,14 +25,13 @@ from ._formulas import (
     _safe_ratio,
     _weights,
     ball_equivalent_load,
-    ball_race_load_ratings,
-    dynamic_load_rating,
     equivalent_load,
     life_hours,
     mean_speed_rpm,
     rating_life,
     ring_equivalent_load,
 )
+from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_load_rating
 
 
 class RatingLife(eqx.Module):
