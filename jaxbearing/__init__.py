@@ -2,8 +2,8 @@
 bearing joint and impacts (after Xu 2014, Nonlinear Dynamics 78:857–879).
 
 Data flows one way: parameters (`params`, SI units) -> force laws (`laws`) -> mechanism
-assembly and equations of motion (`multibody`) -> diffrax solve (`simulate`) -> outputs
-(`Solution`). Ready-made models live in `cases`.
+assembly and equations of motion (`multibody`) -> diffrax solve (`solve`) -> outputs
+(`solution`). Ready-made models live in `cases`.
 
 jaxbearing computes in float64 and does not switch JAX's global mode for you: call
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
@@ -13,19 +13,13 @@ from . import cases, laws, life, metrics, multibody, paths
 from .compile import jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
-from .simulate import (
-    RESULTS,
-    Contacts,
-    SimulationError,
-    Solution,
+from .solution import RESULTS, Contacts, SimulationError, Solution
+from .solve import (
     default_max_segments,
     default_solver,
     kvaerno5,
     simulate,
 )
-
-# isort: split
-# last: the sweep reads the public names above from this package (`from .. import simulate`)
 from ._sweep import sweep
 from ._tune import TuneResult, sensitivity, tune
 

@@ -77,8 +77,8 @@ def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
 
 def enforce(x, violations: Iterable[tuple[object, str, object]]):
     """Attach every rule to ``x`` (usable under jit, vmap and grad): the first violated rule
-    raises its message. One `eqx.branched_error_if` for all rules (one `eqx.error_if` per rule
-    cost 48 ms of tracing each, 1.4 s for the paper's case)."""
+    raises its message. One `eqx.branched_error_if` for all rules: one `eqx.error_if` per rule
+    would be traced once per rule."""
     violations = list(violations)
     if not violations:
         return x
@@ -124,11 +124,11 @@ def in_half_open_interval(name: str, value, low: float, high: float):
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
 
 
-def material(youngs_modulus, poisson_ratio):
-    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5)."""
+def material(youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisson_name="poisson_ratio"):
+    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5), named as given."""
     return [
-        positive("youngs_modulus", youngs_modulus, "Pa"),
-        in_open_interval("poisson_ratio", poisson_ratio, 0.0, 0.5),
+        positive(youngs_name, youngs_modulus, "Pa"),
+        in_open_interval(poisson_name, poisson_ratio, 0.0, 0.5),
     ]
 
 

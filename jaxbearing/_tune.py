@@ -33,7 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from . import paths as _paths, simulate  # simulate: the function, bound in __init__.py first
+from . import paths as _paths
+from .solve import simulate
 from .compile import jit
 
 

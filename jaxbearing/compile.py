@@ -1,14 +1,12 @@
 """How jaxbearing compiles: `jit`, `eqx.filter_jit` with the XLA options measured best here.
 
 XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's case markedly
-slower and run it no faster: with ``xla_cpu_use_fusion_emitters`` off, XLA's compile of a 0.2 s
-simulation took 3.8 s instead of 7.2 s, of its 3-parameter forward-mode gradient 7.1 s instead
-of 10.8 s, of Kvaerno5 with the smooth ball force 12.4 s instead of 16.4 s, at equal or lower run
-time (benchmarks/run.py measures the end result). The option exists on XLA:CPU only, and only in
-some releases: GPU builds of JAX refuse it ("No such compile option"), and so does the CPU
-compiler of jax 0.11. `jit` passes it only when it compiles for the CPU (`compiler_options`,
-`target_platform`) and that CPU compiler accepts it (`cpu_options_supported`, asked once a
-process), and passes no options elsewhere.
+slower and run it no faster, so `jit` turns ``xla_cpu_use_fusion_emitters`` off (README and
+benchmarks/results.json give the compile and run times; benchmarks/run.py measures them). The
+option exists on XLA:CPU only, and only in some releases: GPU builds of JAX refuse it ("No such
+compile option"), and so does the CPU compiler of jax 0.11. `jit` passes it only when it
+compiles for the CPU (`compiler_options`, `target_platform`) and that CPU compiler accepts it
+(`cpu_options_supported`, asked once a process), and passes no options elsewhere.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and

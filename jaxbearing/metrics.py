@@ -1,5 +1,6 @@
-"""Scalar metrics of a `Solution`, over a time window (default t >= 0.04 s, after the start-up
-transient in which the rod falls onto the race and rings).
+"""Scalar metrics of a `Solution`, over a time window (default t >= `T_MIN`, which is
+`solution.WINDOW_START`: after the start-up transient in which the rod falls onto the race and
+rings).
 
 They are computed from the solution itself, not from its output times: `simulate` records, per
 segment of the solve, the peaks and integrals over every accepted solver step and the step's
@@ -21,11 +22,11 @@ differentiation transforms:
   approaches it as p grows, and is differentiable everywhere: use them as objectives for
   `jax.grad` and optax. The RMS bearing force is smooth already. Their integrals are 3-point
   Gauss–Legendre quadratures of each step's interpolant (exact for integrands of degree <= 5
-  over a step), recorded at p = `simulate.POWER` (16).
+  over a step), recorded at p = `solution.POWER` (16).
 
 Forces in N, displacements in m.
 
-A window that holds none of the solved span (e.g. a run to t1 < 0.04 s with the default t_min)
+A window that holds none of the solved span (e.g. a run that ends before the default t_min)
 has no value: with a concrete solution and window the metric raises a `ValueError` naming
 ``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN and a warning says so at
 run time.
@@ -47,7 +48,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .simulate import (
+from ._checks import is_concrete
+from .solution import (
     FORCE_SCALE,
     INT_BALL_LOAD_POWER,
     INT_BEARING_FORCE_POWER,
@@ -63,8 +65,7 @@ from .simulate import (
     Solution,
 )
 
-T_MIN = WINDOW_START  # [s] start of the default window (0.04 s), a segment end of every solve
-TARGET_X = 9  # coordinate of the target's x in `cases.xu2014` (body 3)
+T_MIN = WINDOW_START  # [s] start of the default window, a segment end of every solve
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,17 +83,33 @@ class WithModel:
 
 
 def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Trapezoid weights [s] of the output times inside [t_min, t_max], zero outside (for
-    metrics of sampled series, such as `jaxbearing.life`'s); checked by `check_window` (a
-    window without output times)."""
-    inside = ts >= t_min
-    if t_max is not None:
-        inside = inside & (ts <= t_max)
-    dt = jnp.diff(ts)
-    w = jnp.zeros_like(ts).at[:-1].add(0.5 * dt).at[1:].add(0.5 * dt)
-    w = jnp.where(inside, w, 0.0)
+    """Weights [s] of the output times over the window [t_min, t_max] (`window_weights`), for
+    metrics of sampled series; checked by `check_window` (a window without output times)."""
+    lo = -jnp.inf if t_min is None else t_min
+    w = window_weights(ts, lo, jnp.inf if t_max is None else t_max)
     check_window(ts, w, t_min, t_max)
     return w
+
+
+def window_weights(ts, lo, hi) -> jax.Array:
+    """Weights w [s] with sum_i w_i f(t_i) = the integral over [lo, hi] of the piecewise-linear
+    interpolant of the samples f(t_i) (trapezoid rule, each interval cut at the window's edges).
+
+    So a function linear between samples integrates exactly, whether the edges fall on samples
+    (then it is the trapezoid rule over the intervals inside) or between them (the part of an
+    interval inside counts by the interpolant there); samples outside the window carry weight
+    only through an interval that the window cuts. One rule for `window` and the life's
+    revolution weights (`jaxbearing.life`). ``lo``, ``hi`` may be infinite; ts (T,)
+    non-decreasing [s]."""
+    t_a, t_b = ts[:-1], ts[1:]
+    a, b = jnp.clip(t_a, lo, hi), jnp.clip(t_b, lo, hi)
+    length = jnp.maximum(b - a, 0.0)
+    h = t_b - t_a
+    safe_h = jnp.where(h > 0.0, h, 1.0)
+    mid = 0.5 * (a + b)
+    left = jnp.where(h > 0.0, length * (t_b - mid) / safe_h, 0.0)
+    right = jnp.where(h > 0.0, length * (mid - t_a) / safe_h, 0.0)
+    return jnp.zeros_like(ts).at[:-1].add(left).at[1:].add(right)
 
 
 def check_window(ts, weights, t_min, t_max, need="one"):
@@ -106,7 +123,7 @@ def check_window(ts, weights, t_min, t_max, need="one"):
 
 def _check_not_empty(filled, t_min, t_max, first, last, what):
     """Raise when ``filled`` is concretely False; traced, warn at run time if False."""
-    if all(not isinstance(x, jax.core.Tracer) for x in (filled, t_min, t_max, first, last)):
+    if is_concrete(filled, t_min, t_max, first, last):
         if not bool(filled):
             raise ValueError(_empty_window(t_min, t_max, first, last, what) + ".")
         return
@@ -137,10 +154,6 @@ def _warn_empty_window(t_min, t_max, first, last, *, what):
 EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to a segment end counts as that end
 
 
-def _concrete(*xs) -> bool:
-    return not any(isinstance(x, jax.core.Tracer) for x in xs)
-
-
 def _segments(sol: Solution, t_min, t_max):
     """Which segments of ``sol`` lie in [t_min, t_max], and whether both edges are segment ends
     (or outside the solved span). ValueError when they are not and that is known in Python."""
@@ -156,7 +169,7 @@ def _segments(sol: Solution, t_min, t_max):
 
     edges = ((t_min, is_edge(t_min, s.t_start)), (t_max, is_edge(t_max, s.t_end)))
     ok = edges[0][1] & edges[1][1]
-    if _concrete(ok) and not bool(ok):
+    if is_concrete(ok) and not bool(ok):
         missing = tuple(float(t) for t, edge in edges if not bool(edge))
         raise ValueError(
             f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
@@ -185,7 +198,7 @@ def _integral(sol: Solution, column, t_min, t_max):
 
 def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
     """FORCE_SCALE (integral / (count T))^(1/p) [N] of a recorded power integral."""
-    if _concrete(p) and float(p) != POWER:
+    if is_concrete(p) and float(p) != POWER:
         raise ValueError(
             f"The solution records power means of order p = {POWER} only; got p = {p}."
         )
@@ -226,16 +239,23 @@ def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
     return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
 
 
-def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=TARGET_X) -> jax.Array:
-    """Largest |q_c(t) - q_c(t0)| [m] of one coordinate in the window (default: the xu2014
-    target's x), over each solver step's end and Gauss points (exact there; `SegmentStats`)."""
-    return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
+def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=None) -> jax.Array:
+    """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, over each solver
+    step's end and Gauss points (exact there; `SegmentStats`). Default coordinate: the impact
+    target's x (`Solution.target`; in `cases.xu2014` the target, body 3); a model without
+    impact contact has no target, and the value is 0 (nothing is struck), as
+    `peak_impact_force`'s."""
+    if coordinate is not None:
+        return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
+    if sol.target is not None:
+        return _peak(sol, PEAK_DISPLACEMENT + sol.target, t_min, t_max)
+    return 0.0 * _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)  # NaN for a window without value
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of all ball loads over the window and the balls [N]: a
     differentiable stand-in for `peak_ball_load` (below it; closer as p grows). Gauss–Legendre
-    quadrature of each step's interpolant; p must be `simulate.POWER` (16)."""
+    quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
     _require_bearing(sol)
     n_balls = sol.ball_loads.shape[-1]
     return _power_mean(sol, INT_BALL_LOAD_POWER, t_min, t_max, p, n_balls)
@@ -243,14 +263,14 @@ def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax
 
 def smooth_peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak.
-    Gauss–Legendre quadrature of each step's interpolant; p must be `simulate.POWER` (16)."""
+    Gauss–Legendre quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
     _require_bearing(sol)
     return _power_mean(sol, INT_BEARING_FORCE_POWER, t_min, t_max, p)
 
 
 def smooth_peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of the impact force over the window [N]. Gauss–Legendre quadrature
-    of each step's interpolant; p must be `simulate.POWER` (16)."""
+    of each step's interpolant; p must be `solution.POWER` (16)."""
     return _power_mean(sol, INT_CONTACT_FORCE_POWER, t_min, t_max, p)
 
 

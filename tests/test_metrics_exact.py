@@ -11,7 +11,7 @@ import pytest
 
 import jaxbearing as jb
 from jaxbearing import metrics as M
-from jaxbearing.simulate import INT_TIME
+from jaxbearing.solution import INT_TIME
 from test_derivatives import TIGHT, converged_difference
 
 T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases, no impact yet

@@ -276,3 +276,22 @@ def test_solve_spd_matches_lapack(n):
     expected = np.linalg.solve(a, b)
     got = np.asarray(solve_spd(jnp.asarray(a), jnp.asarray(b)))
     np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+
+
+# --------------------------------------------------------------------------- one interface each
+
+
+def test_force_elements_and_joints_share_one_abstract_interface():
+    mb = jb.multibody
+    for cls in (mb.BearingJoint, mb.CircleContact, mb.SpringDamper, mb.Gravity):
+        assert issubclass(cls, mb.AbstractForceElement)
+    for cls in (mb.Revolute, mb.Translational, mb.Driver):
+        assert issubclass(cls, mb.AbstractJoint)
+    with pytest.raises(TypeError):
+        mb.AbstractForceElement()
+
+    class Incomplete(mb.AbstractForceElement):  # no generalized_force, ...
+        pass
+
+    with pytest.raises(TypeError):
+        Incomplete()

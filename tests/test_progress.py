@@ -10,7 +10,7 @@ import pytest
 
 import jaxbearing as jb
 
-simulate_module = sys.modules["jaxbearing.simulate"]
+simulate_module = sys.modules["jaxbearing.solve._progress"]
 
 
 @pytest.fixture

@@ -224,7 +224,7 @@ def test_traced_bad_values_are_checked_under_vmap(bad, message):
 
 
 def test_traced_non_finite_times_are_checked():
-    from jaxbearing.simulate import _checked_span
+    from jaxbearing.solve._simulate import _checked_span
 
     with pytest.raises(Exception, match=r"t0 and t1 must be finite \[s\]"):
         jax.jit(lambda t1: _checked_span(0.0, t1)[1])(jnp.inf)

@@ -79,3 +79,27 @@ def test_life_over_an_empty_window_raises_or_is_nan_with_a_warning():
     assert np.isnan(values).all()  # the rating life was +inf
     longer = jax.jit(life_values)(np.linspace(0.0, 0.1, 51), *args[1:])  # a window that holds
     assert np.isfinite([float(v) for v in longer]).all()
+
+
+# ----------------------------------------------------------- one weighting of sampled windows
+
+
+def test_window_weights_integrate_a_linear_function_exactly_between_samples():
+    """`metrics.window` (and the life's revolution weights) integrate the samples' linear
+    interpolant over the window: exact for f(t) = 3 + 2 t with edges between samples, on
+    samples, and unbounded."""
+    ts = jnp.asarray(np.sort(np.random.default_rng(0).uniform(0.0, 1.0, 40)))
+    f = 3.0 + 2.0 * ts
+    exact = lambda a, b: 3.0 * (b - a) + (b * b - a * a)
+    for lo, hi in ((0.2137, 0.7771), (float(ts[5]), float(ts[30])), (0.5, None)):
+        w = metrics.window(ts, lo, hi)
+        b = float(ts[-1]) if hi is None else hi
+        np.testing.assert_allclose(float(w @ f), exact(lo, b), rtol=1e-13)
+        np.testing.assert_allclose(float(jnp.sum(w)), b - lo, rtol=1e-13)
+
+
+def test_life_and_metrics_weight_a_window_alike():
+    ts = jnp.linspace(0.0, 1.0, 21)
+    rel = jnp.full(21, 2.0 * jnp.pi)  # one relative revolution per second
+    w = metrics.window(ts, 0.33, 0.81)
+    np.testing.assert_allclose(life.revolution_weights(ts, rel, 0.33, 0.81), w, rtol=1e-14)

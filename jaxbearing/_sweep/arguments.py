@@ -14,7 +14,9 @@ import jax.numpy as jnp
 import numpy as np
 
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
-from .. import Mechanism, default_max_segments, default_solver, metrics as _metrics, paths, simulate
+from .. import metrics as _metrics, paths
+from ..multibody import Mechanism
+from ..solve import default_max_segments, default_solver, simulate
 
 DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)

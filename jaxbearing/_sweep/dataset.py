@@ -7,7 +7,8 @@ import json
 
 import numpy as np
 
-from .. import RESULTS, _files
+from .. import _files
+from ..solution import RESULTS
 from .kernel import RAISED, SUCCESS
 
 

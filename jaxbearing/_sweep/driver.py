@@ -13,7 +13,8 @@ from pathlib import Path
 import jax
 import numpy as np
 
-from .. import Mechanism, _checks
+from .. import _checks
+from ..multibody import Mechanism
 from . import arguments, dataset as _dataset, kernel, store
 from .progress import Progress
 

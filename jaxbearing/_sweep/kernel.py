@@ -11,7 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec as P
 
-from .. import RESULTS, metrics as _metrics, paths, simulate
+from .. import metrics as _metrics, paths
+from ..solution import RESULTS
+from ..solve import simulate
 
 AXIS = "d"  # name of the device axis of the mesh
 SUCCESS = int(RESULTS.successful._value)

@@ -24,13 +24,28 @@ Two variants of Eq. 9 (``BallBearing.ball_force``):
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..params import BallBearing
-
 BALL_RELEASE = 1e-12  # [m] an engaged ball of the paper force is released at delta_r = -1 pm
+
+
+class BearingParameters(Protocol):
+    """What the laws read of a bearing (`jaxbearing.params.BallBearing` has it; the laws do not
+    import the parameters, which import the laws)."""
+
+    clearance: jax.Array  # P_d, diametral [m]
+    stiffness: jax.Array  # K_b [N/m^exponent]
+    exponent: float  # n of Eq. 9 [-]
+    damping: jax.Array  # C_b [N s/m]
+    damping_ramp: jax.Array  # [m], deflection over which the smooth force ramps its damping in
+    inner_race_diameter: jax.Array  # d_i [m]
+    outer_race_diameter: jax.Array  # d_o [m]
+    n_balls: int  # N_b
+    ball_force: str  # "paper" or "smooth"
 
 
 def _pitch_angles(n_balls: int) -> np.ndarray:
@@ -54,7 +69,7 @@ def ball_directions(cage_angle, n_balls: int) -> tuple[jax.Array, jax.Array]:
     return np.cos(pitch) * c - np.sin(pitch) * s, np.sin(pitch) * c + np.cos(pitch) * s
 
 
-def cage_speed(inner_speed, outer_speed, bearing: BallBearing) -> jax.Array:
+def cage_speed(inner_speed, outer_speed, bearing: BearingParameters) -> jax.Array:
     """Cage angular speed omega_m = (omega_i d_i + omega_o d_o)/(d_i + d_o) [rad/s] (Eq. 15)."""
     d_i, d_o = bearing.inner_race_diameter, bearing.outer_race_diameter
     return (inner_speed * d_i + outer_speed * d_o) / (d_i + d_o)
@@ -66,14 +81,14 @@ def smooth_ramp(x) -> jax.Array:
     return x * x * (3.0 - 2.0 * x)
 
 
-def ball_deflections(eccentricity, cage_angle, bearing: BallBearing) -> jax.Array:
+def ball_deflections(eccentricity, cage_angle, bearing: BearingParameters) -> jax.Array:
     """delta_r = e_x cos phi_r + e_y sin phi_r - P_d/2 [m] (Eq. 12); negative inside the clearance."""
     cos, sin = ball_directions(cage_angle, bearing.n_balls)
     return eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
 
 
 def ball_loads(
-    eccentricity, eccentricity_rate, cage_angle, bearing: BallBearing, engaged=None
+    eccentricity, eccentricity_rate, cage_angle, bearing: BearingParameters, engaged=None
 ) -> jax.Array:
     """Contact force of each ball [N], shape (N_b,), ball 1 first (Eqs. 9, 12–14).
 

@@ -185,13 +185,6 @@ def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, c
     ]
 
 
-def _material_rules(youngs_name, youngs, poisson_name, poisson):
-    return [
-        _checks.positive(youngs_name, youngs, "Pa"),
-        _checks.in_open_interval(poisson_name, poisson, 0.0, 0.5),
-    ]
-
-
 @jax.jit
 def _curvature_sums(d, dm, fi, fo, alpha):
     gamma = d * jnp.cos(alpha) / dm
@@ -365,7 +358,7 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
     _checks.raise_if_concrete(
         [_checks.positive("sum_rho", rho, "1/m")]
         + _curvature_difference_rules(f)
-        + _material_rules("youngs_modulus", e, "poisson_ratio", nu)
+        + _checks.material(e, nu)
     )
     return _race_stiffness(rho, f, e, nu)
 
@@ -433,7 +426,7 @@ def bearing_stiffness(
     )
     _checks.raise_if_concrete(
         _geometry_rules(d, dm, fi, fo, alpha)
-        + _material_rules("youngs_modulus", e, "poisson_ratio", nu)
+        + _checks.material(e, nu)
     )
     return _bearing_stiffness(d, dm, fi, fo, e, nu, alpha)
 
@@ -466,7 +459,7 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
     )
     _checks.raise_if_concrete(
         [_checks.positive("radius_j", rj, "m"), _checks.positive("radius_k", rk, "m")]
-        + _material_rules("youngs_j", ej, "poisson_j", nj)
-        + _material_rules("youngs_k", ek, "poisson_k", nk)
+        + _checks.material(ej, nj, "youngs_j", "poisson_j")
+        + _checks.material(ek, nk, "youngs_k", "poisson_k")
     )
     return _impact_stiffness(rj, rk, ej, nj, ek, nk)

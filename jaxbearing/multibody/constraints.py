@@ -9,6 +9,9 @@ check them against those derivatives.)
 
 from __future__ import annotations
 
+import abc
+from typing import ClassVar, final
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -40,7 +43,31 @@ def _angle_row(q, body: int) -> jax.Array:
     return jnp.zeros((1, q.shape[0]), q.dtype).at[0, 3 * body + 2].set(1.0)
 
 
-class Revolute(eqx.Module):
+class AbstractJoint(eqx.Module):
+    """A kinematic constraint Phi(q, t) = 0 of ``n_equations`` equations with its closed-form
+    derivatives (Eqs. 35–36); every concrete joint is final."""
+
+    n_equations: eqx.AbstractClassVar[int]
+
+    @abc.abstractmethod
+    def __call__(self, q, t) -> jax.Array:
+        """Phi, (n_equations,) [m or rad]."""
+
+    @abc.abstractmethod
+    def jacobian(self, q, t) -> jax.Array:
+        """Phi_q, (n_equations, n_coordinates)."""
+
+    @abc.abstractmethod
+    def time_derivative(self, q, t) -> jax.Array:
+        """Phi_t, (n_equations,)."""
+
+    @abc.abstractmethod
+    def gamma(self, q, qd, t) -> jax.Array:
+        """gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt, (n_equations,)."""
+
+
+@final
+class Revolute(AbstractJoint):
     """Ideal pin: point s_i of body i coincides with point s_j of body j (2 equations).
 
     Either body may be `GROUND`, whose point is then a global position [m].
@@ -51,7 +78,7 @@ class Revolute(eqx.Module):
     point_i: jax.Array
     point_j: jax.Array
 
-    n_equations = 2
+    n_equations: ClassVar[int] = 2
 
     def __init__(self, body_i: int, point_i, body_j: int, point_j):
         if body_i == body_j:
@@ -79,7 +106,8 @@ class Revolute(eqx.Module):
         )
 
 
-class Translational(eqx.Module):
+@final
+class Translational(AbstractJoint):
     """Body slides along a fixed ground line without turning (2 equations).
 
     The body's centroid stays on the line through ``origin`` [m] at angle ``line_angle`` [rad],
@@ -91,7 +119,7 @@ class Translational(eqx.Module):
     line_angle: jax.Array
     body_angle: jax.Array
 
-    n_equations = 2
+    n_equations: ClassVar[int] = 2
 
     def __init__(self, body: int, origin=(0.0, 0.0), line_angle=0.0, body_angle=0.0):
         if body == GROUND:
@@ -121,14 +149,15 @@ class Translational(eqx.Module):
         return jnp.zeros(2, q.dtype)
 
 
-class Driver(eqx.Module):
+@final
+class Driver(AbstractJoint):
     """Rheonomic driver theta_b = angle + speed * t (1 equation): a motor at constant speed."""
 
     body: int = eqx.field(static=True)
     angle: jax.Array
     speed: jax.Array
 
-    n_equations = 1
+    n_equations: ClassVar[int] = 1
 
     def __init__(self, body: int, angle=0.0, speed=0.0):
         if body == GROUND:

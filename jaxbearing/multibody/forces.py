@@ -1,12 +1,17 @@
 """Force elements: they enter the equations of motion through Q_A only (paper Sect. 2.3).
 
-Each element maps the state to a generalised force vector the size of q. The bearing joint
-(Eqs. 4–5, 9–14, 28–30), spring-damper and gravity are functions of (t, q, qd); an impact
-contact (Eqs. 16–27, 31–34) also needs the approach speed of its current contact, which
-`jaxbearing.simulate` captures at each onset.
+Every element is an `AbstractForceElement` with one signature, ``generalized_force(t, q, qd,
+inputs)``: it maps the state to a generalised force vector the size of q, reading from
+`ForceInputs` what it needs beyond the state. The bearing joint (Eqs. 4–5, 9–14, 28–30) reads
+the initial state (its cage) and which of its balls are engaged; an impact contact (Eqs. 16–27,
+31–34) reads the approach speed of its current contact, which `jaxbearing.simulate` captures at
+each onset; gravity reads the body masses; the spring-damper reads nothing more.
 """
 
 from __future__ import annotations
+
+import abc
+from typing import NamedTuple, final
 
 import equinox as eqx
 import jax
@@ -17,6 +22,36 @@ from ..laws import bearing as bearing_law
 from ..laws import impact as impact_law
 from ..params import BallBearing, Impact
 from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotate
+
+
+class ForceInputs(NamedTuple):
+    """What a force element may read beside (t, q, qd); `Mechanism` gives each element its own."""
+
+    q0: jax.Array  # (n_coordinates,) initial coordinates [m, rad]
+    qd0: jax.Array  # (n_coordinates,) initial velocities [m/s, rad/s]
+    masses: jax.Array  # (n_bodies,) [kg]
+    engaged: jax.Array | None = None  # a paper-force bearing's (N_b,) engaged balls; None: delta_r > 0
+    approach_speed: jax.Array | None = None  # a contact's approach speed at onset [m/s]
+
+
+class AbstractForceElement(eqx.Module):
+    """A force element of a `Mechanism`; every concrete element is final."""
+
+    @abc.abstractmethod
+    def generalized_force(self, t, q, qd, inputs: ForceInputs) -> jax.Array:
+        """Q of this element, (n_coordinates,) [N, N m]."""
+
+    @abc.abstractmethod
+    def bodies(self) -> tuple[int, ...]:
+        """The bodies it acts on (`GROUND` = -1 allowed)."""
+
+    @abc.abstractmethod
+    def violations(self) -> list:
+        """Its parameter rules (`jaxbearing._checks`), those of its parameter Modules included."""
+
+    @abc.abstractmethod
+    def n_switched_balls(self) -> int:
+        """Balls whose contact `simulate` switches at events (a paper-force bearing's N_b), else 0."""
 
 
 def _safe_norm(x):
@@ -32,7 +67,8 @@ def _angle_and_speed(q, qd, body: int):
     return pose(q, body)[1], qd[3 * body + 2]
 
 
-class BearingJoint(eqx.Module):
+@final
+class BearingJoint(AbstractForceElement):
     """A rolling ball bearing between an outer-race body (bush) and an inner-race body (journal).
 
     The race centres are body-frame points ``outer_point`` and ``inner_point`` [m] (Eq. 2).
@@ -102,14 +138,24 @@ class BearingJoint(eqx.Module):
         loads, cage = self.ball_loads(t, q, qd, q0, qd0, engaged)
         return bearing_law.resultant(loads, cage)
 
-    def generalized_force(self, t, q, qd, q0, qd0, engaged=None):
-        f = self.force(t, q, qd, q0, qd0, engaged)
+    def generalized_force(self, t, q, qd, inputs: ForceInputs):
+        f = self.force(t, q, qd, inputs.q0, inputs.qd0, inputs.engaged)
         return point_force(q, self.outer_body, self.outer_point, f) + point_force(
             q, self.inner_body, self.inner_point, -f
         )
 
+    def bodies(self):
+        return (self.outer_body, self.inner_body)
 
-class CircleContact(eqx.Module):
+    def violations(self):
+        return self.bearing.violations()
+
+    def n_switched_balls(self):
+        return self.bearing.n_balls if self.switched else 0
+
+
+@final
+class CircleContact(AbstractForceElement):
     """Impact between two circular surfaces: radius R_j centred at body-frame point c_j of body j
     and radius R_k at c_k of body k (paper Eqs. 16–27, 31–34; docs/model.md, 'Impact contact'
     and 'Contact circles and switch-on time').
@@ -147,7 +193,13 @@ class CircleContact(eqx.Module):
         return [
             _checks.positive("contact radius_j", self.radius_j, "m"),
             _checks.positive("contact radius_k", self.radius_k, "m"),
-        ]
+        ] + self.impact.violations()
+
+    def bodies(self):
+        return (self.body_j, self.body_k)
+
+    def n_switched_balls(self):
+        return 0
 
     def __check_init__(self):
         _checks.check_init(self)
@@ -187,8 +239,8 @@ class CircleContact(eqx.Module):
         )
         return normal, tangential
 
-    def generalized_force(self, t, q, qd, approach_speed):
-        normal, tangential = self.forces(t, q, qd, approach_speed)
+    def generalized_force(self, t, q, qd, inputs: ForceInputs):
+        normal, tangential = self.forces(t, q, qd, inputs.approach_speed)
         _, _, n, tan, _ = self.gap(q, qd)
         on_k = normal * n + tangential * tan
         _, theta_j = pose(q, self.body_j)
@@ -199,7 +251,8 @@ class CircleContact(eqx.Module):
         return point_force(q, self.body_k, g_k, on_k) + point_force(q, self.body_j, g_j, -on_k)
 
 
-class SpringDamper(eqx.Module):
+@final
+class SpringDamper(AbstractForceElement):
     """Linear spring-damper between point s_i of body i and s_j of body j (either may be
     `GROUND`): tension k (l - l0) + c dl/dt [N] along the line between the points."""
 
@@ -229,7 +282,13 @@ class SpringDamper(eqx.Module):
     def __check_init__(self):
         _checks.check_init(self)
 
-    def generalized_force(self, t, q, qd, q0, qd0):
+    def bodies(self):
+        return (self.body_i, self.body_j)
+
+    def n_switched_balls(self):
+        return 0
+
+    def generalized_force(self, t, q, qd, inputs: ForceInputs):
         d = point_position(q, self.body_j, self.point_j) - point_position(q, self.body_i, self.point_i)
         length = _safe_norm(d)
         u = d / jnp.where(length > 0.0, length, 1.0)
@@ -243,7 +302,8 @@ class SpringDamper(eqx.Module):
         )
 
 
-class Gravity(eqx.Module):
+@final
+class Gravity(AbstractForceElement):
     """Uniform gravity g [m/s^2] on every body (off in the paper's case)."""
 
     acceleration: jax.Array
@@ -251,9 +311,19 @@ class Gravity(eqx.Module):
     def __init__(self, acceleration=(0.0, -9.80665)):
         self.acceleration = _checks.as_float(acceleration, "gravity acceleration", "m/s^2")
 
-    def generalized_force(self, masses, q):
-        """[m g_x, m g_y, 0] per body, for body masses (n_bodies,) [kg]."""
+    def generalized_force(self, t, q, qd, inputs: ForceInputs):
+        """[m g_x, m g_y, 0] per body, for the body masses ``inputs.masses`` (n_bodies,) [kg]."""
+        masses = inputs.masses
         per_body = jnp.concatenate(
             [masses[:, None] * self.acceleration[None, :], jnp.zeros((masses.shape[0], 1), q.dtype)], 1
         )
         return per_body.reshape(-1)
+
+    def bodies(self):
+        return ()
+
+    def violations(self):
+        return []
+
+    def n_switched_balls(self):
+        return 0

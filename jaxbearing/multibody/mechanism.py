@@ -11,8 +11,6 @@ in closed form.
 
 from __future__ import annotations
 
-import dataclasses
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -20,7 +18,8 @@ import jax.numpy as jnp
 from .. import _checks
 from ..params import BallBearing, Impact
 from .bodies import Body
-from .forces import BearingJoint, CircleContact, Gravity
+from .constraints import AbstractJoint
+from .forces import AbstractForceElement, BearingJoint, CircleContact, ForceInputs, Gravity
 
 POSITION_TOLERANCE = 1e-8  # [m or rad] allowed violation of Phi(q0, 0) = 0
 VELOCITY_TOLERANCE = 1e-6  # [m/s or rad/s] allowed violation of Phi_dot(q0, qd0, 0) = 0
@@ -32,7 +31,7 @@ class Mechanism(eqx.Module):
     Fields:
         bodies: the moving bodies; body b owns q[3b:3b+3] = [x, y, theta].
         joints: kinematic constraints (`Revolute`, `Translational`, `Driver`).
-        forces: state-only force elements (`BearingJoint`, `SpringDamper`).
+        forces: force elements without captured state (`BearingJoint`, `SpringDamper`).
         contacts: impact contacts (`CircleContact`), whose approach speeds are captured per
             contact by `simulate`.
         gravity: a `Gravity` or None.
@@ -42,8 +41,8 @@ class Mechanism(eqx.Module):
     """
 
     bodies: tuple[Body, ...]
-    joints: tuple
-    forces: tuple
+    joints: tuple[AbstractJoint, ...]
+    forces: tuple[AbstractForceElement, ...]
     contacts: tuple[CircleContact, ...]
     gravity: Gravity | None
     q0: jax.Array
@@ -90,7 +89,7 @@ class Mechanism(eqx.Module):
             raise ValueError(f"body_names has {len(names)} entries for {len(self.bodies)} bodies.")
         self.body_names = names
         for element in self.forces:
-            for body in _bodies_of(element):
+            for body in element.bodies():
                 if body >= len(self.bodies) or body < -1:
                     raise ValueError(f"{type(element).__name__} refers to body {body}, which does not exist.")
         if self.n_constraints > n:
@@ -151,17 +150,16 @@ class Mechanism(eqx.Module):
         """Phi_q, (n_constraints, n_coordinates)."""
         return jnp.concatenate([joint.jacobian(q, t) for joint in self.joints])
 
-    def constraint_velocity(self, q, qd, t) -> jax.Array:
-        """Phi_dot = Phi_q q_dot + Phi_t."""
-        return self.constraint_jacobian(q, t) @ qd + jnp.concatenate(
-            [joint.time_derivative(q, t) for joint in self.joints]
-        )
+    def constraint_velocity(self, q, qd, t, jacobian=None) -> jax.Array:
+        """Phi_dot = Phi_q q_dot + Phi_t (``jacobian``: Phi_q if already at hand)."""
+        jac = self.constraint_jacobian(q, t) if jacobian is None else jacobian
+        return jac @ qd + jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
 
     def constraint_rhs(self, q, qd, t):
         """Phi_q and the right-hand side gamma - 2 alpha Phi_dot - beta^2 Phi of Eq. 36."""
         jac = self.constraint_jacobian(q, t)
         phi = self.constraints(q, t)
-        phi_dot = jac @ qd + jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
+        phi_dot = self.constraint_velocity(q, qd, t, jac)
         gamma = jnp.concatenate([joint.gamma(q, qd, t) for joint in self.joints])
         rhs = gamma - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
         return jac, rhs
@@ -170,7 +168,7 @@ class Mechanism(eqx.Module):
     @property
     def n_switched_balls(self) -> int:
         """Balls of all bearing joints with the paper force, whose contact `simulate` switches."""
-        return sum(b.bearing.n_balls for b in self.bearings if b.switched)
+        return sum(element.n_switched_balls() for element in self.forces)
 
     def ball_deflections(self, t, q) -> jax.Array:
         """delta_r [m] of the switched balls, bearing by bearing, (n_switched_balls,)."""
@@ -196,18 +194,19 @@ class Mechanism(eqx.Module):
         ``engaged`` (n_switched_balls,) bool: which balls of paper-force bearings touch (as
         switched by `simulate`); None: those with delta_r > 0.
         """
+        inputs = ForceInputs(self.q0, self.qd0, self.masses)
         total = jnp.zeros_like(q)
-        by_bearing = iter(self.engaged_by_bearing(engaged))
+        start = 0
         for element in self.forces:
-            if isinstance(element, BearingJoint):
-                f = element.generalized_force(t, q, qd, self.q0, self.qd0, next(by_bearing))
-            else:
-                f = element.generalized_force(t, q, qd, self.q0, self.qd0)
-            total = total + f
+            k = element.n_switched_balls()
+            mine = engaged[start : start + k] if k and engaged is not None else None
+            total = total + element.generalized_force(t, q, qd, inputs._replace(engaged=mine))
+            start += k
         for c, contact in enumerate(self.contacts):
-            total = total + contact.generalized_force(t, q, qd, approach_speeds[c])
+            speed = inputs._replace(approach_speed=approach_speeds[c])
+            total = total + contact.generalized_force(t, q, qd, speed)
         if self.gravity is not None:
-            total = total + self.gravity.generalized_force(self.masses, q)
+            total = total + self.gravity.generalized_force(t, q, qd, inputs)
         return total
 
     def accelerations(self, t, q, qd, approach_speeds, engaged=None) -> jax.Array:
@@ -233,9 +232,11 @@ class Mechanism(eqx.Module):
         """Every rule on every parameter of the model, plus consistency of the initial state;
         first that every floating leaf is finite (named by its dotted path)."""
         rules = _checks.finite_leaves(self)
-        for node in _modules_below(self):
-            if hasattr(node, "violations"):
-                rules.extend(node.violations())
+        parts = self.bodies + self.forces + self.contacts
+        if self.gravity is not None:
+            parts += (self.gravity,)
+        for part in parts:
+            rules.extend(part.violations())
         t0 = jnp.zeros((), self.q0.dtype)
         if self.joints:
             pos = jnp.max(jnp.abs(self.constraints(self.q0, t0)))
@@ -269,28 +270,14 @@ def solve_spd(a, b) -> jax.Array:
     elimination unrolled over the n pivots.
 
     Without pivoting this is stable for SPD matrices (the pivots are those of a Cholesky
-    factorisation). Unrolled, XLA fuses it into a few kernels: for the 9 x 9 Schur complement of
-    the paper's case it costs 1.4 us against 3.3 us for LAPACK's Cholesky factor and solve.
+    factorisation). Unrolled, XLA fuses it into a few kernels, cheaper for these small matrices than
+    LAPACK's Cholesky factor and solve (benchmarks/results.json).
     """
     m = jnp.concatenate([a, b[:, None]], axis=1)
     for j in range(a.shape[0]):
         row = m[j] / m[j, j]
         m = (m - m[:, j : j + 1] * row[None, :]).at[j].set(row)
     return m[:, -1]
-
-
-def _modules_below(module):
-    """Every Module nested in ``module``'s fields (depth first), not ``module`` itself."""
-    children = [getattr(module, f.name) for f in dataclasses.fields(module)]
-    for child in jax.tree_util.tree_leaves(children, is_leaf=lambda x: isinstance(x, eqx.Module)):
-        if isinstance(child, eqx.Module):
-            yield child
-            yield from _modules_below(child)
-
-
-def _bodies_of(element) -> list[int]:
-    names = ("outer_body", "inner_body", "body_i", "body_j", "body_k", "body")
-    return [getattr(element, n) for n in names if hasattr(element, n)]
 
 
 __all__ = ["Mechanism"]

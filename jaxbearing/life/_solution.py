@@ -1,0 +1,306 @@
+"""Fatigue life of a simulated bearing: the formulas of `_formulas` applied to a `Solution`
+and its model (the bearing's geometry, the ring speeds), and the L10 life as a sweep metric."""
+
+from __future__ import annotations
+
+import functools
+import inspect
+from typing import Literal
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ..compile import jit
+from ..laws import bearing as bearing_law
+from ..metrics import WithModel
+from ..multibody.bodies import GROUND
+from ..multibody.mechanism import Mechanism
+from ..solution import Solution
+from ._formulas import (
+    T_MIN,
+    _bounds,
+    _combine,
+    _safe_power,
+    _safe_ratio,
+    _weights,
+    ball_equivalent_load,
+    equivalent_load,
+    life_hours,
+    mean_speed_rpm,
+    rating_life,
+    ring_equivalent_load,
+)
+from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_load_rating
+
+
+class RatingLife(eqx.Module):
+    """ISO 281 basic rating life of a simulated bearing (`iso_life`).
+
+    Fields: load_rating C_r [N]; equivalent_load P [N] (revolution-weighted cube mean of |F|);
+    l10 = (C_r/P)^3 [millions of relative revolutions]; speed n [rpm] (mean relative speed);
+    l10_hours [h]; revolutions: relative revolutions in the window.
+    """
+
+    load_rating: jax.Array
+    equivalent_load: jax.Array
+    l10: jax.Array
+    speed: jax.Array
+    l10_hours: jax.Array
+    revolutions: jax.Array
+
+
+class LPLife(eqx.Module):
+    """Lundberg–Palmgren life of a simulated bearing (`lp_life`).
+
+    Fields: rating_inner, rating_outer: Q_ci, Q_co [N]; load_inner, load_outer: equivalent
+    ball loads Q_e of each ring [N]; life_inner, life_outer: ring lives (Q_c/Q_e)^3 [millions of
+    relative revolutions]; l10: bearing life [millions of relative revolutions]; speed n [rpm];
+    l10_hours [h].
+    """
+
+    rating_inner: jax.Array
+    rating_outer: jax.Array
+    load_inner: jax.Array
+    load_outer: jax.Array
+    life_inner: jax.Array
+    life_outer: jax.Array
+    l10: jax.Array
+    speed: jax.Array
+    l10_hours: jax.Array
+
+
+def _joint(model: Mechanism, bearing: int):
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"model must be a jaxbearing Mechanism, got {type(model).__name__}.")
+    joints = model.bearings
+    if not 0 <= bearing < len(joints):
+        raise ValueError(
+            f"bearing must index one of the model's {len(joints)} bearing joints; got {bearing}."
+        )
+    return joints[bearing]
+
+
+def _ring_angle_speed(sol: Solution, body: int):
+    if body == GROUND:
+        zeros = jnp.zeros_like(sol.ts)
+        return zeros, zeros
+    return sol.q[:, 3 * body + 2], sol.qd[:, 3 * body + 2]
+
+
+def relative_speed(sol: Solution, model: Mechanism, bearing: int = 0) -> jax.Array:
+    """omega_inner - omega_outer [rad/s], (T,): the inner-race body's angular speed minus the
+    outer-race body's (`cases.xu2014`: rod qd[:, 5] minus crank qd[:, 2])."""
+    joint = _joint(model, bearing)
+    return _ring_angle_speed(sol, joint.inner_body)[1] - _ring_angle_speed(sol, joint.outer_body)[1]
+
+
+def _bearing_geometry(model: Mechanism, bearing: int):
+    """(Z, D, d_m) from the BallBearing's raceway diameters d_i = d_m - D, d_o = d_m + D."""
+    b = _joint(model, bearing).bearing
+    d = 0.5 * (b.outer_race_diameter - b.inner_race_diameter)
+    dm = 0.5 * (b.outer_race_diameter + b.inner_race_diameter)
+    return b.n_balls, d, dm
+
+
+def _check_solution(sol: Solution, bearing: int):
+    if not isinstance(sol, Solution):
+        raise TypeError(f"sol must be a jaxbearing Solution, got {type(sol).__name__}.")
+    if sol.bearing_force is None:
+        raise ValueError("This solution has no bearing joint.")
+    if bearing != 0:
+        raise ValueError("Solutions carry the forces of the first bearing joint only (bearing=0).")
+
+
+def iso_life(
+    sol: Solution, model: Mechanism, *, t_min=T_MIN, t_max=None, bearing: int = 0
+) -> RatingLife:
+    """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
+    (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
+    force magnitude over the window (`equivalent_load`), L10 = (C_r/P)^3, L10h at the mean
+    relative speed.
+
+    Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
+    [s]; bearing: index of the bearing joint (0, the one `Solution` records).
+    """
+    _check_solution(sol, bearing)
+    z, d, dm = _bearing_geometry(model, bearing)
+    rel = relative_speed(sol, model, bearing)
+    c = dynamic_load_rating(z, d, dm)
+    p = equivalent_load(sol.ts, sol.bearing_force, rel, t_min, t_max)
+    n = mean_speed_rpm(sol.ts, rel, t_min, t_max)
+    l10 = rating_life(c, p)
+    revs = jnp.sum(_weights(sol.ts, rel, *_bounds(t_min, t_max))[1])
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revs)
+
+
+def ring_point_loads(
+    sol: Solution,
+    model: Mechanism,
+    ring: Literal["inner", "outer"],
+    points_per_ball: int = 8,
+    bearing: int = 0,
+) -> jax.Array:
+    """Load history of material points fixed in one ring, (T, Z * points_per_ball) [N].
+
+    Point k sits at angle 2 pi k / M (M = Z * points_per_ball) in the frame of the ring's body;
+    its load at time t is what the bearing law (Eqs. 9, 12; `laws.bearing.ball_loads`, same
+    variant, clearance and damping) gives for a ball at that point's global angle
+    2 pi k / M + theta_body(t), from the simulated eccentricity and its rate. At the balls'
+    own positions it equals ``sol.ball_loads``; in between it is the load the next ball to
+    pass will carry. Balls and both raceways carry the same load (frictionless balls).
+    """
+    if ring not in ("inner", "outer"):
+        raise ValueError(f"ring must be 'inner' or 'outer'; got {ring!r}.")
+    if int(points_per_ball) != points_per_ball or points_per_ball < 1:
+        raise ValueError(f"points_per_ball must be a positive integer; got {points_per_ball}.")
+    joint = _joint(model, bearing)
+    body = joint.inner_body if ring == "inner" else joint.outer_body
+    return _ring_point_loads(joint, body, sol.q, sol.qd, int(points_per_ball))
+
+
+@jit
+def _ring_point_loads(joint, body, q, qd, k):
+    nb = joint.bearing.n_balls
+    theta = jnp.zeros(q.shape[0], q.dtype) if body == GROUND else q[:, 3 * body + 2]
+    e, v = jax.vmap(joint.eccentricity)(q, qd)
+    offsets = 2.0 * jnp.pi * jnp.arange(k) / (nb * k)
+
+    def at(e_t, v_t, th_t):
+        return jax.vmap(lambda o: bearing_law.ball_loads(e_t, v_t, th_t + o, joint.bearing))(
+            offsets
+        )
+
+    loads = jax.vmap(at)(e, v, theta)  # (T, k, Z): point index r k + j sits at 2 pi (r k + j)/(Z k)
+    return jnp.swapaxes(loads, 1, 2).reshape(q.shape[0], nb * k)
+
+
+def lp_life(
+    sol: Solution,
+    model: Mechanism,
+    *,
+    groove_inner=0.52,
+    groove_outer=0.52,
+    t_min=T_MIN,
+    t_max=None,
+    rotating: Literal["inner", "outer"] | None = None,
+    points_per_ball: int = 8,
+    b_m=B_M,
+    reduction=ISO_REDUCTION,
+    bearing: int = 0,
+) -> LPLife:
+    """Lundberg–Palmgren life of the simulated bearing from its ball loads (Harris & Kotzalas).
+
+    Ring ratings Q_ci, Q_co from the geometry (`ball_race_load_ratings`); equivalent ball
+    loads of each ring; ring lives L = (Q_c/Q_e)^3; bearing L10 = (L_i^-10/9 + L_o^-10/9)^-9/10
+    in millions of relative revolutions, and in hours at the mean relative speed.
+
+    Which ring turns relative to the load? In a mechanism the load direction turns too, so the
+    default (``rotating=None``) assumes nothing: it follows the material points of each ring
+    (`ring_point_loads`) through the simulated load field and applies `ring_equivalent_load`,
+    which reduces to Harris' exponent-3 mean for a ring that rotates uniformly relative to a
+    steady load and to the exponent-10/3 mean for one that does not, and also covers what lies
+    between. In `cases.xu2014` without impact the bearing force is dominated by the
+    centripetal force of the rod's big end, so it stays within about 110 degrees of one
+    direction in the crank (outer ring) frame, and turns once per revolution relative to the
+    rod (inner ring). The inner ring nevertheless meets the load peaks at the same points every
+    revolution (the rod swings periodically with the crank, and sweeps past the load at a speed
+    that varies by a factor 2.4), so its equivalent load lies between Harris' rotating and
+    stationary values. ``rotating="inner"`` or ``"outer"`` instead applies Harris' textbook
+    rule to ``sol.ball_loads``: the named ring rotates relative to the load (p = 3 over balls
+    and time), the other is stationary (p = 10/3), see `ball_equivalent_load`; for
+    `cases.xu2014` the kinematically apt choice is ``"inner"``.
+
+    Args:
+        sol, model: a `simulate` result and its model.
+        groove_inner, groove_outer: raceway conformities f = r/D (`BallBearing` does not store
+            them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
+            0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
+        t_min, t_max: window [s].
+        rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
+        points_per_ball: ring points per ball spacing for ``rotating=None``.
+        b_m, reduction: factors of the ratings, see `ball_race_load_ratings`.
+        bearing: index of the bearing joint (0).
+    """
+    _check_solution(sol, bearing)
+    z, d, dm = _bearing_geometry(model, bearing)
+    q_ci, q_co = ball_race_load_ratings(
+        z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
+    )
+    rel = relative_speed(sol, model, bearing)
+    if rotating is None:
+        loads = {
+            r: ring_point_loads(sol, model, r, points_per_ball, bearing) for r in ("inner", "outer")
+        }
+        q_ei = ring_equivalent_load(sol.ts, loads["inner"], rel, t_min, t_max)
+        q_eo = ring_equivalent_load(sol.ts, loads["outer"], rel, t_min, t_max)
+    elif rotating in ("inner", "outer"):
+        p_i, p_o = (3.0, 10.0 / 3.0) if rotating == "inner" else (10.0 / 3.0, 3.0)
+        q_ei = ball_equivalent_load(sol.ts, sol.ball_loads, rel, p_i, t_min, t_max)
+        q_eo = ball_equivalent_load(sol.ts, sol.ball_loads, rel, p_o, t_min, t_max)
+    else:
+        raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
+    inv_i = _safe_power(q_ei / q_ci, 3.0)
+    inv_o = _safe_power(q_eo / q_co, 3.0)
+    l10 = _combine(inv_i, inv_o)
+    n = mean_speed_rpm(sol.ts, rel, t_min, t_max)
+    return LPLife(
+        q_ci, q_co, q_ei, q_eo, _safe_ratio(1.0, inv_i), _safe_ratio(1.0, inv_o), l10, n,
+        1e6 * l10 / (60.0 * n),
+    )  # fmt: skip
+
+
+def l10_hours(
+    sol: Solution, model: Mechanism, method: Literal["iso", "lp"] = "iso", **kwargs
+) -> jax.Array:
+    """L10 life in hours at the simulated mean relative speed: ``method="iso"`` the ISO 281
+    rating (C_r/P)^3 (`iso_life`), ``"lp"`` Lundberg–Palmgren from the ball loads (`lp_life`;
+    pass ``groove_inner``, ``groove_outer``). Keyword arguments go to that function."""
+    return _life_function(method)(sol, model, **kwargs).l10_hours
+
+
+def _life_function(method):
+    """`iso_life` or `lp_life` by name."""
+    if method == "iso":
+        return iso_life
+    if method == "lp":
+        return lp_life
+    raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
+
+
+_L10_UNITS = ("hours", "mrev")
+
+
+def metric(
+    method: Literal["iso", "lp"] = "iso", unit: Literal["hours", "mrev"] = "hours", **kwargs
+) -> WithModel:
+    """The L10 life as a metric of `jaxbearing.sweep` (a `metrics.WithModel`: the sweep passes
+    each member's solution and model, so a swept clearance or stiffness enters the life):
+
+        metrics = {"l10_hours": life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
+
+    Args:
+        method: ``"iso"`` ISO 281 rating life (`iso_life`) or ``"lp"`` Lundberg–Palmgren
+            (`lp_life`).
+        unit: ``"hours"`` L10h [h] at the mean relative speed, or ``"mrev"`` L10 [millions of
+            relative revolutions].
+        **kwargs: keyword arguments of that function (t_min, t_max; groove_inner,
+            groove_outer, rotating, ... for ``"lp"``), checked here.
+
+    The value equals ``iso_life(sol, model, **kwargs).l10_hours`` (or ``.l10``; ``lp_life``
+    likewise) on a single run. It costs little beside the simulation (Lundberg–Palmgren follows
+    ``points_per_ball`` points of each ring per ball; benchmarks/results.json has the figures).
+    """
+    function = _life_function(method)
+    if unit not in _L10_UNITS:
+        raise ValueError(f"unit must be 'hours' or 'mrev'; got {unit!r}.")
+    try:
+        inspect.signature(function).bind(None, None, **kwargs)
+    except TypeError as err:
+        raise TypeError(f"life.metric({method!r}): {err}") from None
+    return WithModel(functools.partial(_l10, method=method, unit=unit, **kwargs))
+
+
+def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Array:
+    result = _life_function(method)(sol, model, **kwargs)
+    return result.l10_hours if unit == "hours" else result.l10

@@ -1,0 +1,133 @@
+"""What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
+`Solution`, its `Contacts` and `SegmentStats`, the result codes (`RESULTS`, `SimulationError`),
+the columns of the segment statistics and the start of the default window, each defined once.
+The integrator (`jaxbearing.solve`) writes these; `jaxbearing.metrics` and `jaxbearing.life`
+read them without importing the solver.
+"""
+
+from __future__ import annotations
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+WINDOW_START = 0.04  # [s] start of the metrics' and the life's default window; always a stop
+POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
+FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
+# columns of SegmentStats.peaks and .integrals
+PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1, 2, 3
+(INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER,
+ INT_TIME) = range(5)
+
+
+class RESULTS(diffrax.RESULTS):
+    """diffrax's result codes plus the ones of the segmented solve."""
+
+    max_segments_reached = (
+        "More contact events than max_segments allow (each onset and each separation starts a "
+        "segment). Increase `max_segments`."
+    )
+
+
+class SimulationError(RuntimeError):
+    """A solve failed: the message says when (simulated time) and what to change."""
+
+
+class Contacts(eqx.Module):
+    """Onsets of impact contacts, one slot per segment (padded; read ``valid``).
+
+    Fields:
+        time: onset times [s], NaN in unused slots, (number of segment slots,).
+        approach_speed: penetration rate at onset, delta_dot^(-) of Eq. 23 [m/s].
+        index: which contact of ``model.contacts`` started, -1 in unused slots.
+        valid: True where the slot holds an onset.
+    """
+
+    time: jax.Array
+    approach_speed: jax.Array
+    index: jax.Array
+    valid: jax.Array
+
+    @property
+    def count(self) -> jax.Array:
+        """Number of contact onsets."""
+        return jnp.sum(self.valid, axis=-1)
+
+
+class SegmentStats(eqx.Module):
+    """Peaks and integrals over each segment of the solve, one slot per segment (padded; read
+    ``valid``), taken from the solution itself: every accepted solver step and its interpolant
+    (`_Recording`), not from the output times. `jaxbearing.metrics` combines them over a window.
+
+    Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
+    Gauss–Legendre quadrature over the step; the last step of a segment that ends at an event
+    counts only up to the event. Peaks are therefore the maxima over those points (and the
+    segment's start): exact there, and low by at most the interpolant's rise between points a
+    quarter of a step apart. Integrals are exact for integrands that are polynomials of degree
+    <= 5 over each step.
+
+    Fields (S = number of segment slots):
+        t_start, t_end: (S,) [s] of each segment, NaN in unused slots.
+        peaks: (S, 3 + n_coordinates), the maxima over the segment of: the largest ball load of
+            the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N], the
+            normal force of the first impact contact [N], then |q_c - q0_c| of each coordinate
+            [m or rad]; 0 for an element the model lacks. Columns ``PEAK_*``.
+        integrals: (S, 5), the integrals over the segment of: |F|^2 [N^2 s], the sum over balls
+            of (F_r / FORCE_SCALE)^POWER [s], (|F| / FORCE_SCALE)^POWER [s], (contact force /
+            FORCE_SCALE)^POWER [s], and 1 (the segment's duration) [s]. Columns ``INT_*``.
+        valid: (S,) bool, True where the slot holds a segment.
+    """
+
+    t_start: jax.Array
+    t_end: jax.Array
+    peaks: jax.Array
+    integrals: jax.Array
+    valid: jax.Array
+
+
+class Solution(eqx.Module):
+    """Result of `simulate`: states and force outputs at the requested times.
+
+    Fields (T = number of output times):
+        ts: (T,) [s].
+        q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
+            in model order, [x, y, theta] each.
+        ball_loads: (T, N_b) [N] of the model's first bearing joint, ball 1 first (None
+            without a bearing).
+        bearing_force: (T, 2) [N], resultant on its outer-race body (Eq. 28) (None without).
+        cage_angle: (T,) [rad] of that bearing (None without).
+        contact_force: (T,) [N], normal force of the first impact contact (zeros without).
+        penetration: (T,) [m], penetration of the first impact contact (zeros without).
+        approach_speed: (T, n_contacts) [m/s], approach speed in force at each output time.
+        drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
+        contacts: `Contacts`, the onsets.
+        segments: `SegmentStats`, peaks and integrals of each segment (what the metrics read).
+        result: a `RESULTS` code (successful unless a segment failed).
+        t_final: time reached [s] (t1 unless the solve failed).
+        num_steps, num_rejected_steps: solver steps over all segments.
+        num_segments: number of segments used (time cells plus contact events).
+        target: index in q of the x coordinate of the impact target, body k of the model's
+            first contact (`CircleContact`: the body its normal force pushes along +n); None
+            for a model without impact contact (static).
+    """
+
+    ts: jax.Array
+    q: jax.Array
+    qd: jax.Array
+    qdd: jax.Array
+    ball_loads: jax.Array | None
+    bearing_force: jax.Array | None
+    cage_angle: jax.Array | None
+    contact_force: jax.Array
+    penetration: jax.Array
+    approach_speed: jax.Array
+    drift: jax.Array
+    contacts: Contacts
+    segments: SegmentStats
+    result: RESULTS
+    t_final: jax.Array
+    num_steps: jax.Array
+    num_rejected_steps: jax.Array
+    num_segments: jax.Array
+    target: int | None = eqx.field(static=True, default=None)

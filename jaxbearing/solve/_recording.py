@@ -1,0 +1,150 @@
+"""The recording solver: the user's solver plus the `SegmentStats` of every accepted step.
+
+Each step contributes the forces at its end and at its 3 Gauss–Legendre points, and their
+Gauss–Legendre quadrature over the step (`jaxbearing.solution.SegmentStats`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ..laws import bearing as bearing_law
+from ..multibody.mechanism import Mechanism
+from ..solution import FORCE_SCALE, POWER
+
+# 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
+GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
+GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+
+
+@jax.jit
+def _accelerations(model, t, q, qd, approach_speeds, engaged):
+    """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
+    diffrax traces the vector field several times. XLA inlines the call, so the compiled
+    program is unchanged."""
+    return model.accelerations(t, q, qd, approach_speeds, engaged)
+
+
+def _forces(model, t, q, qd, approach_speeds, engaged):
+    """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
+    and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
+    ``penetration`` [m] of the first impact contact (each only where the model has one)."""
+    out = {}
+    if model.bearings:
+        first = model.engaged_by_bearing(engaged)[0]
+        loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
+        out.update(ball_loads=loads, cage=cage, bearing_force=bearing_law.resultant(loads, cage))
+    if model.contacts:
+        out["contact_force"] = model.contacts[0].forces(t, q, qd, approach_speeds[0])[0]
+        out["penetration"] = model.contacts[0].gap(q, qd)[0]
+    return out
+
+
+def _quantities(model, t, y, args):
+    """The peak candidates (3 + n,) and the integrands (5,) of `SegmentStats` at one state."""
+    approach, _, engaged = args
+    n = model.n_coordinates
+    q, qd = y[:n], y[n:]
+    f = _forces(model, t, q, qd, approach, engaged)
+    zero = jnp.zeros((), y.dtype)
+    loads = f.get("ball_loads", zero[None])
+    resultant = f.get("bearing_force", jnp.zeros(2, y.dtype))
+    squared = jnp.sum(resultant * resultant)
+    magnitude = jnp.sqrt(squared + 1e-30)
+    contact = f.get("contact_force", zero)
+    peaks = jnp.concatenate(
+        [jnp.stack([jnp.max(loads), magnitude, contact]), jnp.abs(q - model.q0)]
+    )
+    integrands = jnp.stack(
+        [
+            squared,
+            jnp.sum((loads / FORCE_SCALE) ** POWER),
+            (magnitude / FORCE_SCALE) ** POWER,
+            (contact / FORCE_SCALE) ** POWER,
+            jnp.ones_like(t),
+        ]
+    )
+    return peaks, integrands
+
+
+def _step_stats(model, interpolation, t_a, t_b, args):
+    """Peaks and integrals over [t_a, t_b] of one step's interpolant: the values at t_b and at
+    the 3 Gauss–Legendre points, and their Gauss–Legendre quadrature."""
+    times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
+    ys = jax.vmap(interpolation.evaluate)(times)
+    peaks, integrands = jax.vmap(lambda t, y: _quantities(model, t, y, args))(times, ys)
+    integral = (t_b - t_a) * (jnp.asarray(GAUSS_WEIGHTS) @ integrands[:3])
+    return jnp.max(peaks, axis=0), integral
+
+
+class _Recording(diffrax.AbstractAdaptiveSolver):
+    """The user's solver, plus the `SegmentStats` of the steps it takes.
+
+    State: (inner state, (peaks, integrals) over all accepted steps but the latest, the latest
+    accepted step (t0, t1, dense_info)). Each step adds its predecessor's stats: diffrax keeps
+    the old state when it rejects a step, so only accepted steps count, and the latest one is
+    left open, so that `_close` counts it up to the end of the segment, which lies before its t1
+    when the segment ends at an event. The state starts with a placeholder step of length zero
+    at y0 (values y0, slopes zero), which counts the segment's initial state.
+    """
+
+    solver: diffrax.AbstractSolver
+    model: Mechanism
+
+    @property
+    def term_structure(self):
+        return self.solver.term_structure
+
+    @property
+    def interpolation_cls(self):  # pyright: ignore
+        return self.solver.interpolation_cls
+
+    @property
+    def term_compatible_contr_kwargs(self):
+        return self.solver.term_compatible_contr_kwargs
+
+    def order(self, terms):
+        return self.solver.order(terms)
+
+    def error_order(self, terms):
+        return self.solver.error_order(terms)
+
+    def init(self, terms, t0, t1, y0, args):
+        inner = self.solver.init(terms, t0, t1, y0, args)
+        _, _, dense_struct, _, _ = eqx.filter_eval_shape(
+            self.solver.step, terms, t0, t1, y0, args, inner, False
+        )
+        dense = jax.tree_util.tree_map(
+            lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
+        )
+        k = 3 + self.model.n_coordinates
+        stats = (jnp.full(k, -jnp.inf, y0.dtype), jnp.zeros(5, y0.dtype))
+        t0 = jnp.asarray(t0, y0.dtype)
+        return inner, stats, (t0, t0, dense)
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        inner, stats, last = solver_state
+        y1, error, dense, inner, result = self.solver.step(
+            terms, t0, t1, y0, args, inner, made_jump
+        )
+        stats = _add(stats, _close(self.model, self.solver, last, last[1], args))
+        t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
+        return y1, error, dense, (inner, stats, (t0, t1, dense)), result
+
+    def func(self, terms, t0, y0, args):
+        return self.solver.func(terms, t0, y0, args)
+
+
+def _close(model, solver, last, t_end, args):
+    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]."""
+    t_a, t_b, dense = last
+    return _step_stats(model, solver.interpolation_cls(t0=t_a, t1=t_b, **dense), t_a, t_end, args)
+
+
+def _add(stats, more):
+    return jnp.maximum(stats[0], more[0]), stats[1] + more[1]

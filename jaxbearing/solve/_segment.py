@@ -1,0 +1,251 @@
+"""One segment of the solve: from the carry's time to the next stop or the first event, then
+the switch of what the event found (contact onsets and separations, ball engagements and
+releases). `_simulate` scans `segment` over a fixed number of slots."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from optimistix._solver.bisection import _BisectionState  # state of the subclass below
+
+from ..laws.bearing import BALL_RELEASE
+from ..solution import RESULTS
+from ._progress import _Progress
+from ._recording import _add, _close
+from ._stops import _block, _write
+
+SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
+EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
+
+
+class _EventBisection(optx.Bisection):
+    """Bisection for the event time that also serves batch members without an event.
+
+    Under vmap, diffrax root-finds for every member when any member has an event; for the others
+    it asks for the root of t_next - t, which sits exactly at the upper end, where
+    `optx.Bisection`'s bracket check fails. Here such a bracket collapses onto its upper end, so
+    those members keep t_next exactly.
+    """
+
+    def init(self, fn, y, args, options, f_struct, aux_struct, tags):
+        lower = jnp.asarray(options["lower"], f_struct.dtype)
+        upper = jnp.asarray(options["upper"], f_struct.dtype)
+        lower_val, _ = fn(lower, args)
+        upper_val, _ = fn(upper, args)
+        return _BisectionState(
+            lower=jnp.where(upper_val == 0, upper, lower),
+            upper=upper,
+            flip=lower_val > upper_val,
+            error=jnp.array(jnp.inf, f_struct.dtype),
+        )
+
+
+class _Carry(NamedTuple):
+    """State of the segment loop between two segments."""
+
+    t: jax.Array  # start of the next segment [s]
+    cell: jax.Array  # index of the next stop (time-cell end or window edge) it runs to
+    dt: jax.Array  # its first step [s]
+    y: jax.Array  # state [q, qd] at t
+    approach: jax.Array  # (n_contacts,) approach speed of each contact's current contact [m/s]
+    in_contact: jax.Array  # (n_contacts,) bool
+    engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
+    out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
+    out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
+    out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
+    done: jax.Array  # reached t1 or failed
+    result: RESULTS
+    steps: jax.Array
+    rejected: jax.Array
+
+
+class _Setup(NamedTuple):
+    """What every segment of one solve shares (fixed while the segments run)."""
+
+    model: object  # the Mechanism
+    ts: jax.Array  # (T,) output times [s]
+    t0: jax.Array  # [s]
+    t1: jax.Array  # [s]
+    stops: jax.Array  # (n_stops,) segment ends [s], increasing (`_stops`)
+    term: diffrax.ODETerm
+    recording: diffrax.AbstractSolver  # the `_Recording` wrapper of ``solver``
+    solver: diffrax.AbstractSolver  # the user's solver (its interpolation closes the stats)
+    controller: diffrax.AbstractStepSizeController
+    event: diffrax.Event | None
+    max_steps: int
+    block: int  # output times one segment may write
+    progress: str | None
+    adjoint: diffrax.AbstractAdjoint
+
+
+def event_values(model, t, y, in_contact, engaged):
+    """One value per contact, then one per switched ball, each negative until its next
+    event. Contacts: the penetration while apart (onset at 0), -(penetration +
+    SEPARATION_OFFSET) while touching, -1 while switched off. Balls: delta_r while free
+    (engages at 0), -(delta_r + BALL_RELEASE) while engaged."""
+    n = model.n_coordinates
+    q, qd = y[:n], y[n:]
+    penetration, _ = model.contact_gaps(q, qd)
+    contact = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
+    active = jnp.stack([c.active(t) for c in model.contacts]) if model.contacts else contact > 0
+    delta = model.ball_deflections(t, q)
+    ball = jnp.where(engaged, -(delta + BALL_RELEASE), delta)
+    return jnp.concatenate([jnp.where(active, contact, -1.0), ball])
+
+
+def make_event(model) -> diffrax.Event | None:
+    """The event that ends a segment at the first switch (None for a model without any)."""
+    if not (model.contacts or model.n_switched_balls):
+        return None
+
+    def first_event(t, y, args, **kwargs):
+        # every value starts a segment negative, so the maximum crosses zero at the first event
+        return jnp.max(event_values(model, t, y, args[1], args[2]))
+
+    root_finder = _EventBisection(rtol=0.0, atol=EVENT_TIME_TOLERANCE)
+    return diffrax.Event(first_event, root_finder=root_finder, direction=True)
+
+
+def initial_carry(model, t0, t1, y0, n_outputs: int, block: int, initial_step) -> _Carry:
+    """The carry before the first segment: at t0, nothing in contact, the balls with
+    delta_r > 0 engaged, no outputs written."""
+    n, n_contacts, n_balls = model.n_coordinates, len(model.contacts), model.n_switched_balls
+    return _Carry(
+        t=t0,
+        cell=jnp.asarray(0),
+        dt=(t1 - t0) * initial_step,
+        y=y0,
+        approach=jnp.zeros(n_contacts),
+        in_contact=jnp.zeros(n_contacts, bool),
+        engaged=model.ball_deflections(t0, model.q0) > 0.0,
+        out_y=jnp.full((n_outputs + block, 2 * n), jnp.nan),
+        out_approach=jnp.zeros((n_outputs + block, n_contacts)),
+        out_engaged=jnp.zeros((n_outputs + block, n_balls), bool),
+        done=jnp.asarray(False),
+        result=RESULTS.successful,
+        steps=jnp.asarray(0),
+        rejected=jnp.asarray(0),
+    )
+
+
+def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
+    """diffrax's solve of [c.t, t_stop], saving at ``save_ts`` and at its end."""
+    meter = (
+        diffrax.NoProgressMeter()
+        if s.progress is None
+        else _Progress(t_start=c.t, t_stop=t_stop, t0=s.t0, t1=s.t1, label=s.progress)
+    )
+    return diffrax.diffeqsolve(
+        s.term,
+        s.recording,
+        c.t,
+        t_stop,
+        jnp.minimum(c.dt, t_stop - c.t),
+        c.y,
+        args=args,
+        saveat=diffrax.SaveAt(
+            subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)],
+            solver_state=True,
+        ),
+        stepsize_controller=s.controller,
+        event=s.event,
+        max_steps=s.max_steps,
+        throw=False,
+        progress_meter=meter,
+        adjoint=s.adjoint,
+    )
+
+
+def _switch(model, c: _Carry, t_end, y_end, hit):
+    """Switch what the event found, the located one and any other already across: (approach,
+    in_contact, engaged, onset record (time, approach speed, contact index, valid))."""
+    approach, in_contact = c.approach, c.in_contact
+    record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+    n, n_contacts = model.n_coordinates, len(model.contacts)
+    values = event_values(model, t_end, y_end, in_contact, c.engaged)
+    located = jnp.arange(values.shape[0]) == jnp.argmax(values)
+    switch = (located | (values > 0)) & hit
+    contact_switch, ball_switch = switch[:n_contacts], switch[n_contacts:]
+    engaged = jnp.where(ball_switch, ~c.engaged, c.engaged)
+    if n_contacts:
+        _, rate = model.contact_gaps(y_end[:n], y_end[n:])
+        onset = contact_switch & ~in_contact
+        approach = jnp.where(onset, rate, approach)
+        in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
+        has_onset = jnp.any(onset)
+        record = (
+            jnp.where(has_onset, t_end, jnp.nan),
+            jnp.where(has_onset, jnp.sum(jnp.where(onset, rate, 0.0)), jnp.nan),
+            jnp.where(has_onset, jnp.argmax(onset), -1),
+            has_onset,
+        )
+    return approach, in_contact, engaged, record
+
+
+def _write_outputs(s: _Setup, c: _Carry, k, save_ts, ys, t_end):
+    """The output buffers with this segment's block of times in [t_start, t_end], each
+    written once."""
+    n_contacts, n_balls = len(s.model.contacts), s.model.n_switched_balls
+    mine = save_ts <= t_end  # False for NaN
+    return (
+        _write(c.out_y, k, ys, mine),
+        _write(c.out_approach, k, jnp.broadcast_to(c.approach, (s.block, n_contacts)), mine),
+        _write(c.out_engaged, k, jnp.broadcast_to(c.engaged, (s.block, n_balls)), mine),
+    )
+
+
+def segment(s: _Setup, c: _Carry, slot):
+    """One slot of the segment loop: (next carry, (onset record, t reached, used, segment
+    stats))."""
+    # finished members (reached t1, or failed: then t is set to t1 with the stop where it
+    # failed) idle in zero-length solves, never backwards from t1 to their stop
+    t_stop = jnp.where(c.done, c.t, s.stops[c.cell])
+    k, save_ts = _block(s.ts, c.t, t_stop, c.done, s.block)
+    args = (c.approach, c.in_contact, c.engaged)
+    sol = _solve(s, c, t_stop, save_ts, args)
+    (_, t_end), (ys, y_end) = sol.ts, sol.ys
+    t_end, y_end = t_end[0], y_end[0]
+    ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
+    hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
+    # stats of the segment: its accepted steps, the last one only up to t_end (an event)
+    _, stats, last = sol.solver_state
+    peaks, integrals = _add(stats, _close(s.model, s.solver, last, t_end, args))
+    out_y, out_approach, out_engaged = _write_outputs(s, c, k, save_ts, ys, t_end)
+    approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
+    record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+    if s.event is not None:
+        approach, in_contact, engaged, record = _switch(s.model, c, t_end, y_end, hit)
+    t_reached = jnp.where(c.done, c.t, t_end)
+    cell_done = ok & ~hit
+    finished = c.done | ~ok | (cell_done & ((c.cell == s.stops.shape[0] - 1) | (t_stop >= s.t1)))
+    # the next segment starts with the mean accepted step of this one (no step-size search;
+    # no gradient through the step sizes, as in diffrax's controllers)
+    accepted = sol.stats["num_accepted_steps"]
+    mean_step = jax.lax.stop_gradient((t_end - c.t) / jnp.maximum(accepted, 1))
+    carry = _Carry(
+        t=jnp.where(finished, s.t1, t_end),
+        cell=jnp.where(cell_done & ~finished, c.cell + 1, c.cell),
+        dt=jnp.where(c.done | (accepted == 0), c.dt, mean_step),
+        y=jnp.where(c.done, c.y, y_end),
+        approach=approach,
+        in_contact=in_contact,
+        engaged=engaged,
+        out_y=out_y,
+        out_approach=out_approach,
+        out_engaged=out_engaged,
+        done=finished,
+        result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
+        steps=c.steps + jnp.where(c.done, 0, sol.stats["num_steps"]),
+        rejected=c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0)),
+    )
+    stats = (
+        jnp.where(c.done, jnp.nan, c.t),
+        jnp.where(c.done, jnp.nan, t_reached),
+        jnp.where(c.done, 0.0, peaks),
+        jnp.where(c.done, 0.0, integrals),
+    )
+    return carry, record + (t_reached, ~c.done) + stats

@@ -1,0 +1,356 @@
+"""The public entry of the solve: `simulate`, its defaults, its checks and its outputs.
+
+State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
+(Lankarani–Nikravesh, Eq. 23), and the paper's ball force (Eq. 9) switches each ball's damping on
+at first touch, so the solve is split into segments at events: a `diffrax.Event` locates, by
+bisection on the step's interpolant (robust also for grazing contacts, where Newton stalls), the
+time at which a penetration crosses zero (onset) or falls below -`SEPARATION_OFFSET`
+(separation), or a paper-force ball's deflection crosses zero (engagement) or falls below
+-`BALL_RELEASE` (release); the next segment restarts there with the approach speed recorded at
+the onset and the ball switched. Within a segment the right-hand side is smooth, and derivatives
+of the solution include the jump of every switch through the event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
+intervals of [t0, t1], so that the members of a vmapped batch stay aligned in time: a batch runs
+each segment until its slowest member is done, and without the cells a member that has had one
+contact event more than another would integrate an unrelated span beside it . They end as well at
+`WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
+run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
+forward-mode differentiable, vmappable); finished members idle in zero-length solves. A run that
+needs more segments than that fails loudly.
+
+While it integrates, the solver records per segment the peaks and integrals that
+`jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the step's
+interpolant, so that the metrics do not depend on the output times.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from .. import _checks
+from .._checks import is_concrete
+from ..compile import jit
+from ..multibody.mechanism import Mechanism
+from ..solution import RESULTS, WINDOW_START, Contacts, SegmentStats, SimulationError, Solution
+from ._recording import _accelerations, _forces, _Recording
+from ._segment import _Setup, initial_carry, make_event, segment
+from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
+
+INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
+OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
+EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
+
+
+def default_solver() -> diffrax.AbstractSolver:
+    """Tsit5: on the paper's case it is the fastest at equal accuracy (README, benchmarks)."""
+    return diffrax.Tsit5()
+
+
+def kvaerno5(newton_rtol=1e-2, newton_atol=1e-5) -> diffrax.Kvaerno5:
+    """Kvaerno5, the stiff (ESDIRK) solver, with a loose simplified-Newton iteration.
+
+    The step error control (``simulate``'s rtol, atol) still sets the accuracy; a Newton
+    tolerance as tight as the step tolerance makes the iteration fail at sharp force changes and
+    multiplies rejected steps. benchmarks/run.py checks its accuracy against a run at 1000x
+    tighter tolerances; README's benchmark table gives its steps and cost.
+    """
+    return diffrax.Kvaerno5(
+        root_finder=diffrax.VeryChord(rtol=newton_rtol, atol=newton_atol, norm=optx.max_norm)
+    )
+
+
+def simulate(
+    model: Mechanism,
+    t1: float,
+    ts=None,
+    *,
+    t0: float = 0.0,
+    solver: diffrax.AbstractSolver | None = None,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    max_steps: int = 200_000,
+    max_segments: int | None = None,
+    time_cells: int = 64,
+    window_edges: tuple = (),
+    output_block: int | None = None,
+    throw: bool = True,
+    progress: str | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+) -> Solution:
+    """Integrate the equations of motion (Eq. 36) from ``t0`` to ``t1`` [s].
+
+    Args:
+        model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
+        t1: final time [s], finite, > t0.
+        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points).
+        solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
+            stiff solver.
+        rtol, atol: error control of the PID step-size controller (state in m, rad, m/s).
+        stepsize_controller: overrides the default `PIDController(rtol, atol, pcoeff=0.3,
+            icoeff=0.3)` (the PI terms reject fewer steps than a plain I controller on the
+            paper's case with impact; README's benchmark table).
+        max_steps: step limit of each segment.
+        max_segments: events allowed (each contact onset and separation, and each engagement
+            and release of a paper-force ball, starts a segment); the run fails if it needs
+            more. Default: `default_max_segments`.
+        time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
+            which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
+            costs a restart of the solver.
+        window_edges: further times [s] at which segments end, so that `jaxbearing.metrics`
+            can use them as window edges (a metric over a window needs its edges to be segment
+            ends; `WINDOW_START`, the default window's start, always is). A tuple: its length
+            is part of the compiled solve.
+        output_block: output times one segment may write; default `default_output_block`, the most
+            that fall in one time cell, so that each output time costs one write.
+        throw: raise `SimulationError` (or an equinox runtime error under transformations) on
+            failure; with False, inspect ``sol.result`` and ``sol.t_final``.
+        progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
+        adjoint: how diffrax differentiates each segment. The default (None) is
+            `diffrax.RecursiveCheckpointAdjoint()`, which serves `jax.grad` and `jax.jacrev`
+            (reverse mode), and becomes `diffrax.ForwardMode()` when `simulate` is traced
+            under `jax.jacfwd` or `jax.jvp` (forward mode, the cheaper for a few parameters;
+            `jaxbearing.sensitivity`). Forward mode around your own `jax.jit` of `simulate`
+            (``jax.jacfwd(jax.jit(f))``) traces `simulate` before the jvp: pass
+            ``adjoint=diffrax.ForwardMode()`` there.
+    """
+    _checks.require_x64()
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
+    t0, t1 = _checked_span(t0, t1)
+    ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
+    if max_segments is None:
+        max_segments = default_max_segments(model, t0, t1)
+    if max_segments < 1:
+        raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
+    if time_cells < 1:
+        raise ValueError(f"time_cells must be at least 1; got {time_cells}.")
+    if output_block is None:
+        output_block = default_output_block(ts, t0, t1, time_cells)
+    if not 1 <= output_block:
+        raise ValueError(f"output_block must be at least 1; got {output_block}.")
+    output_block = min(int(output_block), ts.shape[0])
+    solver = default_solver() if solver is None else solver
+    if stepsize_controller is None:
+        stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
+    solver = _with_root_tolerances(solver, stepsize_controller)
+    stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    sol = _with_adjoint(
+        adjoint,
+        _simulate,
+        model,
+        t0,
+        t1,
+        ts,
+        solver,
+        stepsize_controller,
+        max_steps,
+        max_segments,
+        time_cells,
+        stops,
+        output_block,
+        progress,
+    )
+    if throw:
+        sol = _raise_on_failure(sol, t1)
+    return sol
+
+
+def default_max_segments(model: Mechanism, t0, t1) -> int:
+    """Events `simulate` allows by default: 1 for a model without contacts or paper-force balls,
+    else 64 + `EVENT_RATE` (t1 - t0) rounded up to a power of two, so that runs of similar spans
+    share one compiled solve (a traced span counts as 1 s). README gives the event counts of the
+    paper's case."""
+    if not model.contacts and not model.n_switched_balls:
+        return 1
+    span = float(t1) - float(t0) if is_concrete(t1, t0) else 1.0
+    return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
+
+
+_NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
+
+
+def _with_adjoint(adjoint, solve, *args):
+    """``solve(*args, adjoint)``; the default (None) is `diffrax.RecursiveCheckpointAdjoint()`,
+    and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`) meets it (diffrax's reverse-mode
+    adjoints are `jax.custom_vjp`s and refuse jvp while tracing), `diffrax.ForwardMode()`. An
+    explicit adjoint that refuses forward mode gets a `TypeError` naming the one to pass."""
+    try:
+        return solve(*args, diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
+    except TypeError as err:
+        if _NO_JVP not in str(err):
+            raise
+        if adjoint is None:
+            return solve(*args, diffrax.ForwardMode())
+        raise TypeError(
+            f"simulate is differentiated in forward mode (jax.jacfwd, jax.jvp), which "
+            f"adjoint={type(adjoint).__name__}() does not support (it is reverse mode only): "
+            "pass adjoint=diffrax.ForwardMode(), or leave adjoint unset."
+        ) from err
+
+
+def _checked_span(t0, t1):
+    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
+    or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
+    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    if is_concrete(t0, t1):
+        for name, t in (("t0", t0), ("t1", t1)):
+            if t.ndim or not jnp.isfinite(t):
+                raise ValueError(f"{name} must be a finite number [s]; got {name} = {t}.")
+        if not t1 > t0:
+            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+        return t0, t1
+    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
+    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
+
+
+def _checked_ts(ts, t0, t1):
+    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
+    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
+    ts = jnp.asarray(ts, jnp.float64)
+    if ts.ndim != 1 or ts.shape[0] == 0:
+        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
+    if not is_concrete(ts, t0, t1):
+        return ts
+    t = np.asarray(ts)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
+    back = np.flatnonzero(t[1:] < t[:-1])
+    if back.size:
+        i = back[0]
+        raise ValueError(
+            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
+            f"after ts[{i}] = {t[i]:.6g}."
+        )
+    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
+    if out.size:
+        i = out[0]
+        raise ValueError(
+            f"ts must lie within [t0, t1] = [{float(t0):.6g}, {float(t1):.6g}] s; got ts[{i}] = {t[i]:.6g}."
+        )
+    return ts
+
+
+@jit
+def _simulate(
+    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, extra_stops, block,
+    progress, adjoint,
+):
+    rules = model.violations()
+    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
+    rules.append(
+        ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]),
+         "ts must be increasing and lie within [t0, t1]", ts)
+    )
+    y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+    n = model.n_coordinates
+
+    def vector_field(t, y, args):
+        approach, _, engaged = args
+        q, qd = y[:n], y[n:]
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
+
+    setup = _Setup(
+        model=model,
+        ts=ts,
+        t0=t0,
+        t1=t1,
+        stops=_stops(t0, t1, time_cells, extra_stops),
+        term=diffrax.ODETerm(vector_field),
+        recording=_Recording(_for_adjoint(solver, adjoint), model),
+        solver=solver,
+        controller=controller,
+        event=make_event(model),
+        max_steps=max_steps,
+        block=block,
+        progress=progress,
+        adjoint=adjoint,
+    )
+    T = ts.shape[0]
+    init = initial_carry(model, t0, t1, y0, T, block, INITIAL_STEP)
+    slots = jnp.arange(setup.stops.shape[0] + max_segments)
+    final, records = jax.lax.scan(functools.partial(segment, setup), init, slots)
+    onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
+    t_final = jnp.max(jnp.where(used, t_reached, t0))
+    result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
+    return _outputs(
+        model,
+        ts,
+        final.out_y[:T],
+        final.out_approach[:T],
+        final.out_engaged[:T],
+        Contacts(onset_t, onset_v, onset_i, onset_valid),
+        SegmentStats(*segment_stats, used),
+        result,
+        t_final,
+        final.steps,
+        final.rejected,
+        jnp.sum(used),
+    )
+
+
+def _outputs(
+    model, ts, ys, approach, engaged, contacts, segments, result, t_final, steps, rejected, n_used
+):
+    n = model.n_coordinates
+    q, qd = ys[:, :n], ys[:, n:]
+    valid = jnp.isfinite(ys).all(axis=1)
+    safe_q = jnp.where(valid[:, None], q, model.q0)
+    safe_qd = jnp.where(valid[:, None], qd, model.qd0)
+
+    def at(t, q_, qd_, a_, e_):
+        qdd = _accelerations(model, t, q_, qd_, a_, e_)
+        drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
+        return {"qdd": qdd, "drift": drift, **_forces(model, t, q_, qd_, a_, e_)}
+
+    # in batches: a vmap over all T output times streams every intermediate through memory
+    o = jax.lax.map(lambda x: at(*x), (ts, safe_q, safe_qd, approach, engaged), batch_size=OUTPUT_BATCH)
+    nan_where_invalid = lambda x: jnp.where(valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
+    o = jax.tree_util.tree_map(nan_where_invalid, o)
+    zeros = jnp.zeros_like(ts)
+    return Solution(
+        ts=ts,
+        q=q,
+        qd=qd,
+        qdd=o["qdd"],
+        ball_loads=o.get("ball_loads"),
+        bearing_force=o.get("bearing_force"),
+        cage_angle=o.get("cage"),
+        contact_force=o.get("contact_force", zeros),
+        penetration=o.get("penetration", zeros),
+        approach_speed=approach,
+        drift=o["drift"],
+        contacts=contacts,
+        segments=segments,
+        result=result,
+        t_final=t_final,
+        num_steps=steps,
+        num_rejected_steps=rejected,
+        num_segments=n_used,
+        target=3 * model.contacts[0].body_k if model.contacts else None,
+    )
+
+
+def _raise_on_failure(sol: Solution, t1) -> Solution:
+    failed = sol.result != RESULTS.successful
+    if is_concrete(failed, sol.t_final):
+        if bool(failed):
+            raise SimulationError(
+                f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
+                f"{RESULTS[sol.result]} Likely causes: a step limit too low for stiff contacts "
+                "(raise max_steps), more contact events than max_segments (raise max_segments), "
+                "or parameters that make the model blow up (check stiffness, clearance and "
+                "masses). Pass throw=False to inspect the partial solution."
+            )
+        return sol
+    # under jit/vmap/grad: the failing member's own message (see `RESULTS`)
+    return sol.result.error_if(sol, failed)

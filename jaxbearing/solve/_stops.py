@@ -1,0 +1,88 @@
+"""Where segments end and what each writes: the stops (time-cell ends and window edges), the
+output block of a segment, and the solver settings that depend on the adjoint and controller."""
+
+from __future__ import annotations
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._checks import is_concrete
+
+
+def _stops(t0, t1, time_cells, extra):
+    """Times at which segments end, increasing: the ends of the ``time_cells`` equal cells of
+    [t0, t1] and the ``extra`` times inside (t0, t1). A static count: the extra times outside,
+    and a stop equal to its predecessor, move to t1, where the loop finishes."""
+    cells = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
+    extra = jnp.where((extra > t0) & (extra < t1), extra, t1)
+    stops = jnp.sort(jnp.concatenate([cells, extra]))
+    repeated = jnp.concatenate([jnp.zeros(1, bool), stops[1:] == stops[:-1]])
+    return jnp.sort(jnp.where(repeated, t1, stops))
+
+
+def default_output_block(ts, t0, t1, time_cells: int) -> int:
+    """The most output times in one time cell, ends included (+2 for rounding of the cell
+    ends): a segment never spans more than one cell, so it never writes more. All of ``ts``
+    when ``ts`` or the span are traced."""
+    if not is_concrete(ts, t0, t1):
+        return ts.shape[0]
+    times = np.asarray(ts)
+    edges = np.linspace(float(t0), float(t1), time_cells + 1)
+    first = np.searchsorted(times, edges[:-1], side="left")
+    last = np.searchsorted(times, edges[1:], side="right")
+    return int(min(times.shape[0], np.max(last - first, initial=0) + 2))
+
+
+def _block(ts, t_start, t_stop, done, size):
+    """The ``size`` output times from the first one >= t_start: their index ``k``, and the times
+    inside [t_start, t_stop] with NaN for the others. NaN passes diffrax's range check and never
+    satisfies its save condition ``t_save <= t_next``; finished members (``done``) get only NaN,
+    so their zero-length solves save nothing. (Under vmap diffrax re-runs the step body of
+    members whose loop has ended and discards the result.)"""
+    k = jnp.searchsorted(ts, t_start, side="left")
+    index = k + jnp.arange(size)
+    times = ts[jnp.minimum(index, ts.shape[0] - 1)]
+    inside = (index < ts.shape[0]) & (times <= t_stop) & ~done
+    return k, jnp.where(inside, jnp.clip(times, t_start, t_stop), jnp.nan)
+
+
+def _write(buffer, k, rows, mask):
+    """``buffer[k : k + len(rows)] = rows`` where ``mask``; ``buffer`` has len(rows) rows of
+    padding at its end, so the slice always fits."""
+    old = jax.lax.dynamic_slice_in_dim(buffer, k, rows.shape[0])
+    mask = mask.reshape(mask.shape + (1,) * (rows.ndim - 1))
+    return jax.lax.dynamic_update_slice_in_dim(buffer, jnp.where(mask, rows, old), k, 0)
+
+
+def _with_root_tolerances(solver, controller):
+    """An implicit solver whose root finder takes the step controller's tolerances where it asks
+    for them (`diffrax.with_stepsize_controller_tols`), as `diffeqsolve` does for an unwrapped
+    solver."""
+    if not (
+        isinstance(solver, diffrax.AbstractImplicitSolver)
+        and isinstance(controller, diffrax.AbstractAdaptiveStepSizeController)
+    ):
+        return solver
+    names = [
+        a for a in ("rtol", "atol", "norm")
+        if getattr(solver.root_finder, a) is diffrax._root_finder.use_stepsize_tol
+    ]
+    if not names:
+        return solver
+    return eqx.tree_at(
+        lambda s: tuple(getattr(s.root_finder, a) for a in names),
+        solver,
+        tuple(getattr(controller, a) for a in names),
+    )
+
+
+def _for_adjoint(solver, adjoint):
+    """A Runge–Kutta solver whose stage loop forward mode can differentiate ("lax"), as
+    `diffeqsolve` chooses it for an unwrapped solver under `diffrax.ForwardMode`."""
+    runge_kutta = isinstance(solver, diffrax.AbstractRungeKutta)
+    if not isinstance(adjoint, diffrax.ForwardMode) or not runge_kutta or solver.scan_kind is not None:
+        return solver
+    return eqx.tree_at(lambda s: s.scan_kind, solver, "lax", is_leaf=lambda x: x is None)
