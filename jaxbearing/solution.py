@@ -25,8 +25,9 @@ class RESULTS(diffrax.RESULTS):
     """diffrax's result codes plus the ones of the segmented solve."""
 
     max_segments_reached = (
-        "More contact events than max_segments allow (each onset and each separation starts a "
-        "segment). Increase `max_segments`."
+        "More segments than max_segments allow (each contact onset and separation, each ball "
+        "engagement and release, and with segment_steps each pause starts one). Increase "
+        "`max_segments`."
     )
 
 

@@ -44,6 +44,33 @@ class _EventBisection(optx.Bisection):
         )
 
 
+class _Resumable(diffrax.AbstractStepSizeController):
+    """The user's step-size controller, remembering the step it proposes next: state (inner
+    state, next step [s]). A paused segment hands both to the next solve, which so continues
+    with the very steps it would have taken without the pause."""
+
+    controller: diffrax.AbstractStepSizeController
+
+    def wrap(self, direction):
+        return _Resumable(self.controller.wrap(direction))
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        tnext, inner = self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)
+        return tnext, (inner, tnext - t0)
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        inner, _ = controller_state
+        keep, tprev, tnext, jump, inner, result = self.controller.adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, inner
+        )
+        return keep, tprev, tnext, jump, (inner, tnext - tprev), result
+
+
+def resumable(controller, segment_steps):
+    """The controller a solve with pauses every ``segment_steps`` steps uses (None: as given)."""
+    return controller if segment_steps is None else _Resumable(controller)
+
+
 class _Carry(NamedTuple):
     """State of the segment loop between two segments."""
 
@@ -61,6 +88,11 @@ class _Carry(NamedTuple):
     result: RESULTS
     steps: jax.Array
     rejected: jax.Array
+    control: object  # state of the step-size controller (`_Resumable`) where a segment paused
+    resume: jax.Array  # the next segment continues a paused one
+    since: jax.Array  # steps since the last segment end that was not a pause
+    began: jax.Array  # where the segment that paused began [s]
+    accepted: jax.Array  # steps it accepted so far
 
 
 class _Setup(NamedTuple):
@@ -77,6 +109,7 @@ class _Setup(NamedTuple):
     controller: diffrax.AbstractStepSizeController
     event: diffrax.Event | None
     max_steps: int
+    segment_steps: int | None  # steps after which a segment pauses (None: never)
     block: int  # output times one segment may write
     progress: str | None
     adjoint: diffrax.AbstractAdjoint
@@ -110,11 +143,12 @@ def make_event(model) -> diffrax.Event | None:
     return diffrax.Event(first_event, root_finder=root_finder, direction=True)
 
 
-def initial_carry(model, t0, t1, y0, n_outputs: int, block: int, initial_step) -> _Carry:
+def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
     """The carry before the first segment: at t0, nothing in contact, the balls with
-    delta_r > 0 engaged, no outputs written."""
+    delta_r > 0 engaged, no outputs written, no pause."""
+    model, t0, t1, block = s.model, s.t0, s.t1, s.block
     n, n_contacts, n_balls = model.n_coordinates, len(model.contacts), model.n_switched_balls
-    return _Carry(
+    carry = _Carry(
         t=t0,
         cell=jnp.asarray(0),
         dt=(t1 - t0) * initial_step,
@@ -129,7 +163,17 @@ def initial_carry(model, t0, t1, y0, n_outputs: int, block: int, initial_step) -
         result=RESULTS.successful,
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
+        control=None,
+        resume=jnp.asarray(False),
+        since=jnp.asarray(0),
+        began=t0,
+        accepted=jnp.asarray(0),
     )
+    if s.segment_steps is None:
+        return carry
+    args = (carry.approach, carry.in_contact, carry.engaged)
+    _, control = s.controller.init(s.term, t0, t1, y0, carry.dt, args, s.recording.func, None)
+    return carry._replace(control=jax.tree_util.tree_map(jnp.asarray, control))
 
 
 def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
@@ -139,25 +183,58 @@ def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
         if s.progress is None
         else _Progress(t_start=c.t, t_stop=t_stop, t0=s.t0, t1=s.t1, label=s.progress)
     )
+    dt0 = jnp.minimum(c.dt, t_stop - c.t)
+    resumed = {}
+    if s.segment_steps is not None:  # a paused segment goes on with its controller's state
+        fresh = s.controller.init(s.term, c.t, t_stop, c.y, dt0, args, s.recording.func, None)[1]
+        state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
+        dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
+        resumed = dict(controller_state=jax.lax.stop_gradient(state))
     return diffrax.diffeqsolve(
         s.term,
         s.recording,
         c.t,
         t_stop,
-        jnp.minimum(c.dt, t_stop - c.t),
+        dt0,
         c.y,
         args=args,
         saveat=diffrax.SaveAt(
             subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)],
             solver_state=True,
+            controller_state=s.segment_steps is not None,
         ),
         stepsize_controller=s.controller,
         event=s.event,
-        max_steps=s.max_steps,
+        max_steps=s.max_steps if s.segment_steps is None else s.segment_steps,
         throw=False,
         progress_meter=meter,
         adjoint=s.adjoint,
+        **resumed,
     )
+
+
+def _end(s: _Setup, c: _Carry, sol):
+    """Where the segment ended: (t_end, y_end, paused, steps since the last segment end that
+    was not a pause, controller state to resume with).
+
+    A segment pauses at ``segment_steps`` steps; one that took ``max_steps`` since its start has
+    failed. A segment that did not stop at an event ends at its last accepted step, read from the
+    recording solver: under vmap, when another member stopped at an event, diffrax moves every
+    member without one to the end of its last *attempted* step (possibly a rejected one, at a
+    pause) and interpolates its state there."""
+    (_, t_end), (_, y_end) = sol.ts, sol.ys
+    t_end, y_end = t_end[0], y_end[0]
+    paused, control, since = jnp.asarray(False), None, c.since
+    if s.segment_steps is not None:
+        since = c.since + sol.stats["num_steps"]
+        paused = (sol.result == diffrax.RESULTS.max_steps_reached) & (since < s.max_steps)
+        control = jax.lax.stop_gradient(sol.controller_state)
+    if s.event is not None:
+        _, _, last = sol.solver_state
+        settled = sol.result != diffrax.RESULTS.event_occurred
+        t_end = jnp.where(settled, last[1], t_end)
+        y_end = jnp.where(settled, last[2]["y1"], y_end)
+    return t_end, y_end, paused, since, control
 
 
 def _switch(model, c: _Carry, t_end, y_end, hit):
@@ -207,9 +284,9 @@ def segment(s: _Setup, c: _Carry, slot):
     k, save_ts = _block(s.ts, c.t, t_stop, c.done, s.block)
     args = (c.approach, c.in_contact, c.engaged)
     sol = _solve(s, c, t_stop, save_ts, args)
-    (_, t_end), (ys, y_end) = sol.ts, sol.ys
-    t_end, y_end = t_end[0], y_end[0]
-    ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred)
+    ys = sol.ys[0]
+    t_end, y_end, paused, since, control = _end(s, c, sol)
+    ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
     _, stats, last = sol.solver_state
@@ -220,12 +297,13 @@ def segment(s: _Setup, c: _Carry, slot):
     if s.event is not None:
         approach, in_contact, engaged, record = _switch(s.model, c, t_end, y_end, hit)
     t_reached = jnp.where(c.done, c.t, t_end)
-    cell_done = ok & ~hit
+    cell_done = ok & ~hit & ~paused
     finished = c.done | ~ok | (cell_done & ((c.cell == s.stops.shape[0] - 1) | (t_stop >= s.t1)))
-    # the next segment starts with the mean accepted step of this one (no step-size search;
-    # no gradient through the step sizes, as in diffrax's controllers)
-    accepted = sol.stats["num_accepted_steps"]
-    mean_step = jax.lax.stop_gradient((t_end - c.t) / jnp.maximum(accepted, 1))
+    # the next segment starts with the mean accepted step of this one, its paused parts included
+    # (no step-size search; no gradient through the step sizes, as in diffrax's controllers)
+    accepted = sol.stats["num_accepted_steps"] + jnp.where(c.resume, c.accepted, 0)
+    began = jnp.where(c.resume, c.began, c.t)
+    mean_step = jax.lax.stop_gradient((t_end - began) / jnp.maximum(accepted, 1))
     carry = _Carry(
         t=jnp.where(finished, s.t1, t_end),
         cell=jnp.where(cell_done & ~finished, c.cell + 1, c.cell),
@@ -241,6 +319,11 @@ def segment(s: _Setup, c: _Carry, slot):
         result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
         steps=c.steps + jnp.where(c.done, 0, sol.stats["num_steps"]),
         rejected=c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0)),
+        control=control,
+        resume=paused & ~finished,
+        since=jnp.where(paused, since, 0),
+        began=began,
+        accepted=accepted,
     )
     stats = (
         jnp.where(c.done, jnp.nan, c.t),

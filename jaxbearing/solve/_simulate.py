@@ -40,12 +40,13 @@ from ..compile import jit
 from ..multibody.mechanism import Mechanism
 from ..solution import RESULTS, WINDOW_START, Contacts, SegmentStats, SimulationError, Solution
 from ._recording import _accelerations, _forces, _Recording
-from ._segment import _Setup, initial_carry, make_event, segment
+from ._segment import _Setup, initial_carry, make_event, resumable, segment
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
+STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
 
 
 def default_solver() -> diffrax.AbstractSolver:
@@ -78,6 +79,7 @@ def simulate(
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
     max_steps: int = 200_000,
     max_segments: int | None = None,
+    segment_steps: int | None = None,
     time_cells: int = 64,
     window_edges: tuple = (),
     output_block: int | None = None,
@@ -97,10 +99,19 @@ def simulate(
         stepsize_controller: overrides the default `PIDController(rtol, atol, pcoeff=0.3,
             icoeff=0.3)` (the PI terms reject fewer steps than a plain I controller on the
             paper's case with impact; README's benchmark table).
-        max_steps: step limit of each segment.
-        max_segments: events allowed (each contact onset and separation, and each engagement
-            and release of a paper-force ball, starts a segment); the run fails if it needs
-            more. Default: `default_max_segments`.
+        max_steps: step limit of each segment (between events and stops; its pauses count
+            together).
+        max_segments: segments allowed beyond the stops (each contact onset and separation,
+            each engagement and release of a paper-force ball, and each pause starts one); the
+            run fails if it needs more. Default: `default_max_segments`.
+        segment_steps: steps after which a segment pauses; the next iteration of the segment
+            loop resumes it with the step-size controller's state and proposed step, so the
+            solution is the same, to the last bit, as without pauses. Under `jax.vmap` the
+            members run in lock-step, segment by segment: with pauses a member that reached an
+            event waits for the others at most ``segment_steps`` steps, not until the longest
+            segment of the batch ends, which is what makes batches (sweeps) fast. None (the
+            default): no pauses, the cheapest for a single run. `jaxbearing.sweep` pauses
+            every ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver.
@@ -127,8 +138,10 @@ def simulate(
     _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
     t0, t1 = _checked_span(t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
+    if segment_steps is not None and not 1 <= segment_steps:
+        raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     if max_segments is None:
-        max_segments = default_max_segments(model, t0, t1)
+        max_segments = default_max_segments(model, t0, t1, segment_steps)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
@@ -154,6 +167,7 @@ def simulate(
         stepsize_controller,
         max_steps,
         max_segments,
+        segment_steps,
         time_cells,
         stops,
         output_block,
@@ -164,15 +178,18 @@ def simulate(
     return sol
 
 
-def default_max_segments(model: Mechanism, t0, t1) -> int:
-    """Events `simulate` allows by default: 1 for a model without contacts or paper-force balls,
-    else 64 + `EVENT_RATE` (t1 - t0) rounded up to a power of two, so that runs of similar spans
-    share one compiled solve (a traced span counts as 1 s). README gives the event counts of the
-    paper's case."""
-    if not model.contacts and not model.n_switched_balls:
-        return 1
-    span = float(t1) - float(t0) if is_concrete(t1, t0) else 1.0
-    return 1 << math.ceil(math.log2(64 + EVENT_RATE * max(span, 0.0)))
+def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = None) -> int:
+    """Segments `simulate` allows by default beyond its stops: for events, 1 for a model without
+    contacts or paper-force balls, else 64 + `EVENT_RATE` (t1 - t0); with ``segment_steps``, for
+    pauses, `STEP_RATE` (t1 - t0) / segment_steps more. Rounded up to a power of two, so that
+    runs of similar spans share one compiled solve (a traced span counts as 1 s). README gives
+    the event counts of the paper's case."""
+    events = bool(model.contacts) or bool(model.n_switched_balls)
+    span = max(float(t1) - float(t0) if is_concrete(t1, t0) else 1.0, 0.0)
+    allowed = (64 + EVENT_RATE * span if events else 1) + (
+        0 if segment_steps is None else STEP_RATE * span / segment_steps
+    )
+    return 1 << math.ceil(math.log2(allowed))
 
 
 _NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
@@ -242,8 +259,8 @@ def _checked_ts(ts, t0, t1):
 
 @jit
 def _simulate(
-    model, t0, t1, ts, solver, controller, max_steps, max_segments, time_cells, extra_stops, block,
-    progress, adjoint,
+    model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells,
+    extra_stops, block, progress, adjoint,
 ):
     rules = model.violations()
     rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
@@ -268,15 +285,16 @@ def _simulate(
         term=diffrax.ODETerm(vector_field),
         recording=_Recording(_for_adjoint(solver, adjoint), model),
         solver=solver,
-        controller=controller,
+        controller=resumable(controller, segment_steps),
         event=make_event(model),
         max_steps=max_steps,
+        segment_steps=segment_steps,
         block=block,
         progress=progress,
         adjoint=adjoint,
     )
     T = ts.shape[0]
-    init = initial_carry(model, t0, t1, y0, T, block, INITIAL_STEP)
+    init = initial_carry(setup, y0, T, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
     final, records = jax.lax.scan(functools.partial(segment, setup), init, slots)
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
