@@ -20,7 +20,7 @@ from ..solve import default_max_segments, default_solver, simulate
 
 DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
-SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: measured 4 to 64)
+SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: 4, 8, 16 measured)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 RESERVED = ("status", "failed", "point")
