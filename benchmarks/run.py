@@ -533,8 +533,10 @@ def _gpu_rows(args, settings, results):
 
 
 def _save(args, results):
-    """Write what is measured so far (an interrupted run keeps its finished rows)."""
-    Path(args.json).write_text(json.dumps(results, indent=2))
+    """Write what is measured so far, atomically (an interrupted run keeps its finished rows)."""
+    from jaxbearing import _files
+
+    _files.write_text(args.json, json.dumps(results, indent=2))
 
 
 def _targets(r) -> dict:
@@ -619,7 +621,7 @@ def main(argv=None):
     print("\ntargets")
     for name, t in results["targets"].items():
         print(f"  {name:45s} {t['measured']:8.3f}  {'met' if t['met'] else 'NOT MET'}")
-    Path(args.json).write_text(json.dumps(results, indent=2))
+    _save(args, results)
     print(f"\nwritten {args.json} ({results['total_s']:.0f} s in all)")
 
 

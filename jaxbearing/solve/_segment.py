@@ -28,7 +28,8 @@ class _EventBisection(optx.Bisection):
     Under vmap, diffrax root-finds for every member when any member has an event; for the others
     it asks for the root of t_next - t, which sits exactly at the upper end, where
     `optx.Bisection`'s bracket check fails. Here such a bracket collapses onto its upper end, so
-    those members keep t_next exactly.
+    their root find succeeds (their end time and state are then read from their last accepted
+    step: `_end`).
     """
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
@@ -213,7 +214,7 @@ def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
     )
 
 
-def _end(s: _Setup, c: _Carry, sol):
+def _end(s: _Setup, c: _Carry, sol, last):
     """Where the segment ended: (t_end, y_end, paused, steps since the last segment end that
     was not a pause, controller state to resume with).
 
@@ -221,7 +222,8 @@ def _end(s: _Setup, c: _Carry, sol):
     failed. A segment that did not stop at an event ends at its last accepted step, read from the
     recording solver: under vmap, when another member stopped at an event, diffrax moves every
     member without one to the end of its last *attempted* step (possibly a rejected one, at a
-    pause) and interpolates its state there."""
+    pause) and interpolates its state there. ``last`` is the recording solver's latest accepted
+    step (t0, t1, dense_info)."""
     (_, t_end), (_, y_end) = sol.ts, sol.ys
     t_end, y_end = t_end[0], y_end[0]
     paused, control, since = jnp.asarray(False), None, c.since
@@ -230,7 +232,6 @@ def _end(s: _Setup, c: _Carry, sol):
         paused = (sol.result == diffrax.RESULTS.max_steps_reached) & (since < s.max_steps)
         control = jax.lax.stop_gradient(sol.controller_state)
     if s.event is not None:
-        _, _, last = sol.solver_state
         settled = sol.result != diffrax.RESULTS.event_occurred
         t_end = jnp.where(settled, last[1], t_end)
         y_end = jnp.where(settled, last[2]["y1"], y_end)
@@ -285,11 +286,11 @@ def segment(s: _Setup, c: _Carry, slot):
     args = (c.approach, c.in_contact, c.engaged)
     sol = _solve(s, c, t_stop, save_ts, args)
     ys = sol.ys[0]
-    t_end, y_end, paused, since, control = _end(s, c, sol)
+    _, stats, last = sol.solver_state
+    t_end, y_end, paused, since, control = _end(s, c, sol, last)
     ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
-    _, stats, last = sol.solver_state
     peaks, integrals = _add(stats, _close(s.model, s.solver, last, t_end, args))
     out_y, out_approach, out_engaged = _write_outputs(s, c, k, save_ts, ys, t_end)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
