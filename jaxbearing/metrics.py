@@ -157,26 +157,37 @@ EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to a segment end counts a
 def _segments(sol: Solution, t_min, t_max):
     """Which segments of ``sol`` lie in [t_min, t_max], and whether both edges are segment ends
     (or outside the solved span). ValueError when they are not and that is known in Python."""
-    s = sol.segments
+    return intervals_inside(sol.segments, t_min, t_max, "segments")
+
+
+def intervals_inside(stats, t_min, t_max, name: str):
+    """Which intervals of ``stats`` (fields t_start, t_end, valid: `SegmentStats`,
+    `FatigueStats`) lie in [t_min, t_max] [s], and whether both edges are interval ends (or
+    outside the solved span): a ValueError naming the ``name`` when they are not and that is
+    known in Python; traced, the second value is False."""
     t_max = jnp.inf if t_max is None else t_max
     t_min, t_max = jnp.asarray(t_min, jnp.float64), jnp.asarray(t_max, jnp.float64)
-    start = jnp.min(jnp.where(s.valid, s.t_start, jnp.inf))
-    end = jnp.max(jnp.where(s.valid, s.t_end, -jnp.inf))
+    start = jnp.min(jnp.where(stats.valid, stats.t_start, jnp.inf))
+    end = jnp.max(jnp.where(stats.valid, stats.t_end, -jnp.inf))
 
     def is_edge(t, ends):
-        near = s.valid & (jnp.abs(ends - t) <= EDGE_TOLERANCE)
+        near = stats.valid & (jnp.abs(ends - t) <= EDGE_TOLERANCE)
         return (t <= start + EDGE_TOLERANCE) | (t >= end - EDGE_TOLERANCE) | jnp.any(near)
 
-    edges = ((t_min, is_edge(t_min, s.t_start)), (t_max, is_edge(t_max, s.t_end)))
+    edges = ((t_min, is_edge(t_min, stats.t_start)), (t_max, is_edge(t_max, stats.t_end)))
     ok = edges[0][1] & edges[1][1]
     if is_concrete(ok) and not bool(ok):
         missing = tuple(float(t) for t, edge in edges if not bool(edge))
         raise ValueError(
             f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
-            f"solution's segments (not: {', '.join(map(str, missing))} s): pass the edges to "
+            f"solution's {name} (not: {', '.join(map(str, missing))} s): pass the edges to "
             f"simulate, as simulate(..., window_edges={missing})."
         )
-    inside = s.valid & (s.t_start >= t_min - EDGE_TOLERANCE) & (s.t_end <= t_max + EDGE_TOLERANCE)
+    inside = (
+        stats.valid
+        & (stats.t_start >= t_min - EDGE_TOLERANCE)
+        & (stats.t_end <= t_max + EDGE_TOLERANCE)
+    )
     _check_not_empty(jnp.any(inside), t_min, t_max, start, end, "part of the solved span")
     return inside, ok
 

@@ -1,5 +1,5 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
-`Solution`, its `Contacts` and `SegmentStats`, the result codes (`RESULTS`, `SimulationError`),
+`Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`, `SimulationError`),
 the columns of the segment statistics and the start of the default window, each defined once.
 The integrator (`jaxbearing.solve`) writes these; `jaxbearing.metrics` and `jaxbearing.life`
 read them without importing the solver.
@@ -20,6 +20,9 @@ PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1
 (INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER,
  INT_TIME) = range(5)
 
+RING_POINTS_PER_BALL = 8  # points of each ring per ball spacing that `FatigueStats` follows
+# columns of FatigueStats.integrals
+(FAT_TIME, FAT_REVOLUTIONS, FAT_FORCE_CUBED, FAT_BALL_CUBED, FAT_BALL_TEN_THIRDS) = range(5)
 
 class RESULTS(diffrax.RESULTS):
     """diffrax's result codes plus the ones of the segmented solve."""
@@ -87,6 +90,34 @@ class SegmentStats(eqx.Module):
     valid: jax.Array
 
 
+class FatigueStats(eqx.Module):
+    """What the bearing's fatigue life (`jaxbearing.life`) needs, integrated over the solution
+    itself per interval between the solve's stops (t0, `WINDOW_START`, the ends of the time
+    cells, the ``window_edges`` asked for, t1), for the model's first bearing joint.
+
+    Every integrand is weighted by the relative revolutions the rings turn, w = |omega_inner -
+    omega_outer| / (2 pi) [rev/s], and integrated as `SegmentStats`' integrals are (3-point
+    Gauss–Legendre quadrature of each accepted step's interpolant, the last step of a segment
+    only up to its end). Loads Q are divided by `FORCE_SCALE` before their powers.
+
+    Fields (C = number of stops):
+        t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
+        integrals: (C, 5), the integrals over the interval of: 1 (its duration) [s], w [rev],
+            w (|F| / FORCE_SCALE)^3 (F the resultant, Eq. 28), w mean over balls of
+            (Q_r / FORCE_SCALE)^3, and of (Q_r / FORCE_SCALE)^(10/3). Columns ``FAT_*``.
+        inner, outer: (C, M), w (Q_k / FORCE_SCALE)^3 integrated for each of M =
+            `RING_POINTS_PER_BALL` x N_b points fixed in the inner and the outer ring, point k
+            at 2 pi k / M in its ring body's frame (`BearingJoint.ring_point_loads`).
+        valid: (C,) bool, True where the interval holds part of the solved span.
+    """
+
+    t_start: jax.Array
+    t_end: jax.Array
+    integrals: jax.Array
+    inner: jax.Array
+    outer: jax.Array
+    valid: jax.Array
+
 class Solution(eqx.Module):
     """Result of `simulate`: states and force outputs at the requested times.
 
@@ -104,6 +135,7 @@ class Solution(eqx.Module):
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         contacts: `Contacts`, the onsets.
         segments: `SegmentStats`, peaks and integrals of each segment (what the metrics read).
+        fatigue: `FatigueStats`, what the bearing's life reads (None without a bearing).
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
         num_steps, num_rejected_steps: solver steps over all segments.
@@ -126,6 +158,7 @@ class Solution(eqx.Module):
     drift: jax.Array
     contacts: Contacts
     segments: SegmentStats
+    fatigue: FatigueStats | None
     result: RESULTS
     t_final: jax.Array
     num_steps: jax.Array

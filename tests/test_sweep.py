@@ -277,19 +277,20 @@ def test_default_output_times_are_what_the_metrics_need():
         for name, fn in exact.items():
             np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-6, err_msg=name)
 
-    # the rule: jaxbearing's segment metrics (also inside functools.partial) and functions
-    # marked sample_free are sample-free; anything else (life integrates the samples) is not
+    # the rule: jaxbearing's segment metrics (also inside functools.partial), the life and
+    # functions marked sample_free are sample-free; anything else is not
     def own(sol):
         return M.peak_ball_load(sol, t_min=0.0)
 
     assert [_sweep.needs_samples(fn) for fn in (*exact.values(), M.smooth_peak_ball_load, own)] == [
         False, False, False, True
     ]
+    assert not any(_sweep.needs_samples(METRICS[name]) for name in ("l10_iso_hours", "l10_lp_mrev"))
+    items = (*METRICS.items(), ("own", own))
+    times = _sweep.arguments.output_times(items, 0.0, T1, None)
+    np.testing.assert_array_equal(times, np.linspace(0.0, T1, _sweep.DEFAULT_SAMPLES))
     own.sample_free = True
     assert not _sweep.needs_samples(own)
-    assert _sweep.needs_samples(METRICS["l10_iso_hours"])
-    times = _sweep.arguments.output_times(tuple(METRICS.items()), 0.0, T1, None)
-    np.testing.assert_array_equal(times, np.linspace(0.0, T1, _sweep.DEFAULT_SAMPLES))
 
 
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, grid_result):

@@ -36,10 +36,10 @@ How it runs
   finishes: points that need many steps slow down their chunk, not the others.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
   need: ``[t0, t1]`` when every metric comes from the solve's per-step records
-  (`Solution.segments`: `metrics.STANDARD`, `metrics.SMOOTH`, and any function marked with the
-  attribute ``sample_free = True``), so a member's memory does not grow with an output count;
-  `DEFAULT_SAMPLES` (2001) equally spaced times when a metric reads the samples (e.g.
-  `life.metric`, which integrates over them; `arguments.needs_samples` is the rule).
+  (`Solution.segments` and `.fatigue`: `metrics.STANDARD`, `metrics.SMOOTH`, `life.metric`, and
+  any function marked with the attribute ``sample_free = True``), so a member's memory does not
+  grow with an output count; `DEFAULT_SAMPLES` (2001) equally spaced times when a metric reads
+  the samples (any other function; `arguments.needs_samples` is the rule).
 - Chunk size. On CPU devices the default is 16 points per device. A batch runs in lock-step to
   its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
   gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and

@@ -133,7 +133,8 @@ def needs_samples(fn) -> bool:
     """Whether metric ``fn`` reads the solution's output samples (``sol.ts``, ``sol.ball_loads``,
     ...). Not when the function (inside a `metrics.WithModel` or a `functools.partial`) is one
     of `metrics.STANDARD` or `metrics.SMOOTH`, or carries the attribute ``sample_free = True``
-    (for your own metrics of ``sol.segments``); every other metric does (e.g. `life.metric`)."""
+    (`life.metric`'s does; mark your own metrics of ``sol.segments`` or ``sol.fatigue``); every
+    other metric does."""
     inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
     inner = getattr(inner, "func", inner)  # functools.partial
     return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)

@@ -48,9 +48,9 @@ def sweep(
             one length; dimension ``point``).
         t1: final time [s] of every simulation.
         ts: output times [s] the metrics see. Default: just what the metrics need: ``[t0, t1]``
-            when none reads the output samples (`metrics.STANDARD`, `metrics.SMOOTH` and
-            functions marked ``sample_free = True`` come from the solve's per-step records),
-            else ``linspace(t0, t1, 2001)`` (e.g. for `life.metric`).
+            when none reads the output samples (`metrics.STANDARD`, `metrics.SMOOTH`,
+            `life.metric` and functions marked ``sample_free = True`` come from the solve's
+            per-step records), else ``linspace(t0, t1, 2001)``.
         out: folder to write to and resume from (see the package doc), or None.
         chunk_size: points per device per chunk (default `default_chunk_size()`: 16 on CPU, 1024
             on accelerators; or the layout already in ``out``).

@@ -1,7 +1,16 @@
 """Pure force laws: bearing balls (Eqs. 9–15, 28), impact (Eqs. 23–27), Hertz stiffness (Eqs. 10–11, 24–25)."""
 
 from . import hertz
-from .bearing import ball_angles, ball_deflections, ball_directions, ball_loads, cage_speed, resultant, smooth_ramp
+from .bearing import (
+    ball_angles,
+    ball_deflections,
+    ball_directions,
+    ball_loads,
+    cage_speed,
+    resultant,
+    ring_point_loads,
+    smooth_ramp,
+)
 from .impact import ambrosio_friction, hertz as hertz_force, lankarani_nikravesh, spring_damper
 
 __all__ = [
@@ -15,6 +24,7 @@ __all__ = [
     "hertz_force",
     "lankarani_nikravesh",
     "resultant",
+    "ring_point_loads",
     "smooth_ramp",
     "spring_damper",
 ]

@@ -102,16 +102,39 @@ def ball_loads(
             The smooth force ignores it.
     """
     cos, sin = ball_directions(cage_angle, bearing.n_balls)
+    return _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged)
+
+
+def ring_point_loads(
+    eccentricity, eccentricity_rate, ring_angle, n_points: int, bearing: BearingParameters
+) -> jax.Array:
+    """Load [N] that a ball carries when it passes each of ``n_points`` points fixed in a ring,
+    shape (n_points,): point k sits at the global angle 2 pi k / n_points + ``ring_angle``
+    [rad], and its load is that of `ball_loads` (engaged=None) for a ball placed there."""
+    cos, sin = ball_directions(ring_angle, n_points)
+    return _loads(cos, sin, eccentricity, eccentricity_rate, bearing, None)
+
+
+def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
+    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]."""
     delta = eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
     positive = delta > 0.0
     touching = positive if engaged is None or bearing.ball_force == "smooth" else engaged
-    depth = jnp.where(positive, delta, 0.0)  # keeps the gradient of depth**n finite
+    depth = jnp.where(positive, delta, 0.0)
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)
-    force = bearing.stiffness * depth**bearing.exponent + damping
+    force = bearing.stiffness * _power(delta, positive, bearing.exponent) + damping
     return jnp.where(touching, jnp.maximum(force, 0.0), 0.0)
+
+
+def _power(x, positive, exponent: float) -> jax.Array:
+    """x^n where ``positive``, else 0, with finite gradients everywhere; n = 3/2 (balls) as
+    x sqrt(x), cheaper than the general power."""
+    safe = jnp.where(positive, x, 1.0)
+    power = safe * jnp.sqrt(safe) if exponent == 1.5 else safe**exponent
+    return jnp.where(positive, power, 0.0)
 
 
 def resultant(loads, cage_angle) -> jax.Array:

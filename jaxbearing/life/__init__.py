@@ -8,8 +8,13 @@ Two levels:
   `load_rating_factor`, `revolution_weights`, `equivalent_load`, `rating_life`,
   `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
   `bearing_life`, `mean_speed_rpm`, `life_hours`.
-- **On a `Solution`** of a model with a bearing joint: `relative_speed`, `ring_point_loads`,
-  `iso_life`, `lp_life`, `l10_hours`, and `metric`, the L10 life as a metric of sweeps.
+- **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`, `l10_hours`, and
+  `metric`, the L10 life as a metric of sweeps. They apply the same rules to the integrals the
+  solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
+  accepted step's interpolant, per interval between the solve's stops), not to the output
+  samples, so a life does not depend on ``ts``; the window's edges must be stops of the solve.
+  `relative_speed` and `ring_point_loads` give the sampled histories (for plots, or the array
+  laws).
 
 Conventions (ISO 281:2007 and ISO/TR 1281-1 for variable loads; Harris & Kotzalas, *Rolling
 Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundberg–Palmgren):
@@ -22,10 +27,10 @@ Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundberg�
   does not count. Short impacts count by the revolutions turned while they last (the
   standard's convention for variable loads), not as extra stress cycles.
 - **Window.** [t_min, t_max] (default t >= `T_MIN`, which is `solution.WINDOW_START`, after
-  the start-up transient of `cases.xu2014`); the weights integrate the samples' piecewise-linear interpolant over the
-  window exactly, edges between samples included (`metrics.window_weights`, the rule of
-  `metrics.window` too), so the result does not depend on how the output times fall on the
-  edges.
+  the start-up transient of `cases.xu2014`). On arrays, the weights integrate the samples'
+  piecewise-linear interpolant over the window exactly, edges between samples included
+  (`metrics.window_weights`, the rule of `metrics.window` too); on a `Solution`, the window is
+  a union of the solve's stop intervals.
 - **Hours.** L10h = 1e6 L10 / (60 n), n the mean relative speed [rpm] over the window.
 - **Units.** Inputs in SI (m, rad, N, s, rad/s); the standard's formulas run in N and mm inside.
 

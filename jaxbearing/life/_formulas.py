@@ -233,7 +233,12 @@ def _ball_equivalent_load(ts, q, rel, lo, hi, p):
 def _ring_damage(ts, q, rel, lo, hi):
     """Q_e^3 of a ring from its point loads q (T, M)."""
     w = _weights(ts, rel, lo, hi)[1]
-    cubic = _weighted_mean(_safe_power(q, 3.0), w)  # (M,) cube-mean load of each ring point
+    return ring_cube_mean(_weighted_mean(_safe_power(q, 3.0), w))
+
+
+def ring_cube_mean(cubic):
+    """Q_e^3 of a ring from the cube-mean loads Q_k^3 of its M points (M,): the points fail
+    independently with Weibull slope e = 10/9, Q_e^3 = ((1/M) sum_k (Q_k^3)^(10/9))^(9/10)."""
     return _safe_power(jnp.mean(_safe_power(cubic, 10.0 / 9.0)), 0.9)
 
 

@@ -1,5 +1,7 @@
-"""Fatigue life of a simulated bearing: the formulas of `_formulas` applied to a `Solution`
-and its model (the bearing's geometry, the ring speeds), and the L10 life as a sweep metric."""
+"""Fatigue life of a simulated bearing: the formulas of `_formulas` applied to the integrals a
+`Solution` records (`FatigueStats`: quadratures of the solution itself, so a life does not
+depend on the output times) and to its model (the bearing's geometry), and the L10 life as a
+sweep metric."""
 
 from __future__ import annotations
 
@@ -11,25 +13,28 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._checks import is_concrete
 from ..compile import jit
-from ..laws import bearing as bearing_law
-from ..metrics import WithModel
-from ..multibody.bodies import GROUND
+from ..metrics import WithModel, intervals_inside
 from ..multibody.mechanism import Mechanism
-from ..solution import Solution
+from ..solution import (
+    FAT_BALL_CUBED,
+    FAT_BALL_TEN_THIRDS,
+    FAT_FORCE_CUBED,
+    FAT_REVOLUTIONS,
+    FAT_TIME,
+    FORCE_SCALE,
+    RING_POINTS_PER_BALL,
+    Solution,
+)
 from ._formulas import (
     T_MIN,
-    _bounds,
     _combine,
     _safe_power,
     _safe_ratio,
-    _weights,
-    ball_equivalent_load,
-    equivalent_load,
     life_hours,
-    mean_speed_rpm,
     rating_life,
-    ring_equivalent_load,
+    ring_cube_mean,
 )
 from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_load_rating
 
@@ -81,18 +86,11 @@ def _joint(model: Mechanism, bearing: int):
     return joints[bearing]
 
 
-def _ring_angle_speed(sol: Solution, body: int):
-    if body == GROUND:
-        zeros = jnp.zeros_like(sol.ts)
-        return zeros, zeros
-    return sol.q[:, 3 * body + 2], sol.qd[:, 3 * body + 2]
-
-
 def relative_speed(sol: Solution, model: Mechanism, bearing: int = 0) -> jax.Array:
-    """omega_inner - omega_outer [rad/s], (T,): the inner-race body's angular speed minus the
-    outer-race body's (`cases.xu2014`: rod qd[:, 5] minus crank qd[:, 2])."""
-    joint = _joint(model, bearing)
-    return _ring_angle_speed(sol, joint.inner_body)[1] - _ring_angle_speed(sol, joint.outer_body)[1]
+    """omega_inner - omega_outer [rad/s] at the output times, (T,): the inner-race body's
+    angular speed minus the outer-race body's (`cases.xu2014`: rod qd[:, 5] minus crank
+    qd[:, 2])."""
+    return jax.vmap(_joint(model, bearing).relative_speed)(sol.q, sol.qd)
 
 
 def _bearing_geometry(model: Mechanism, bearing: int):
@@ -108,6 +106,11 @@ def _check_solution(sol: Solution, bearing: int):
         raise TypeError(f"sol must be a jaxbearing Solution, got {type(sol).__name__}.")
     if sol.bearing_force is None:
         raise ValueError("This solution has no bearing joint.")
+    if sol.fatigue is None:
+        raise ValueError(
+            "This solution carries no fatigue integrals (sol.fatigue is None): the life needs a "
+            "solution made by jaxbearing.simulate."
+        )
     if bearing != 0:
         raise ValueError("Solutions carry the forces of the first bearing joint only (bearing=0).")
 
@@ -117,21 +120,55 @@ def iso_life(
 ) -> RatingLife:
     """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
     (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
-    force magnitude over the window (`equivalent_load`), L10 = (C_r/P)^3, L10h at the mean
-    relative speed.
+    force magnitude over the window (`equivalent_load`'s rule), L10 = (C_r/P)^3, L10h at the
+    mean relative speed.
+
+    The means are integrals of the solution (``sol.fatigue``: Gauss–Legendre quadrature of each
+    accepted step's interpolant), not of the output times.
 
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
-    [s]; bearing: index of the bearing joint (0, the one `Solution` records).
+    [s], whose edges must be ends of the solve's stop intervals (t0, `T_MIN`, the time cells'
+    ends, simulate's ``window_edges``, t1); bearing: index of the bearing joint (0, the one
+    `Solution` records).
     """
     _check_solution(sol, bearing)
     z, d, dm = _bearing_geometry(model, bearing)
-    rel = relative_speed(sol, model, bearing)
+    integrals, _, _ = _window_integrals(sol, t_min, t_max)
+    revolutions = integrals[FAT_REVOLUTIONS]
     c = dynamic_load_rating(z, d, dm)
-    p = equivalent_load(sol.ts, sol.bearing_force, rel, t_min, t_max)
-    n = mean_speed_rpm(sol.ts, rel, t_min, t_max)
+    p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_CUBED], revolutions), 1.0 / 3.0)
+    n = 60.0 * revolutions / integrals[FAT_TIME]
     l10 = rating_life(c, p)
-    revs = jnp.sum(_weights(sol.ts, rel, *_bounds(t_min, t_max))[1])
-    return RatingLife(c, p, l10, n, life_hours(l10, n), revs)
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions)
+
+
+def _window_integrals(sol: Solution, t_min, t_max):
+    """`FatigueStats` integrals summed over the window: (integrals (5,), inner (M,), outer
+    (M,)); NaN when the window's edges are not ends of the stop intervals (traced). Raises
+    when, concretely, the rings do not turn relative to each other in the window."""
+    stats = sol.fatigue
+    inside, ok = intervals_inside(stats, _lower(t_min), t_max, "stop intervals")
+
+    def total(x):
+        return jnp.where(ok, jnp.sum(jnp.where(inside[:, None], x, 0.0), axis=0), jnp.nan)
+
+    integrals = total(stats.integrals)
+    revolutions = integrals[FAT_REVOLUTIONS]
+    if is_concrete(revolutions) and float(revolutions) == 0.0:
+        raise ValueError(
+            "the rings must turn relative to each other inside the window (relative_speed is 0 "
+            "throughout): fatigue life is counted in relative revolutions."
+        )
+    return integrals, total(stats.inner), total(stats.outer)
+
+
+def _lower(t_min):
+    return -jnp.inf if t_min is None else t_min
+
+
+def _mean(integral, revolutions):
+    """A revolution-weighted mean: integral / revolutions, NaN where no revolution counts."""
+    return integral / jnp.where(revolutions > 0.0, revolutions, jnp.nan)
 
 
 def ring_point_loads(
@@ -144,11 +181,13 @@ def ring_point_loads(
     """Load history of material points fixed in one ring, (T, Z * points_per_ball) [N].
 
     Point k sits at angle 2 pi k / M (M = Z * points_per_ball) in the frame of the ring's body;
-    its load at time t is what the bearing law (Eqs. 9, 12; `laws.bearing.ball_loads`, same
-    variant, clearance and damping) gives for a ball at that point's global angle
+    its load at time t is what the bearing law (Eqs. 9, 12; `laws.bearing.ring_point_loads`,
+    same variant, clearance and damping) gives for a ball at that point's global angle
     2 pi k / M + theta_body(t), from the simulated eccentricity and its rate. At the balls'
     own positions it equals ``sol.ball_loads``; in between it is the load the next ball to
-    pass will carry. Balls and both raceways carry the same load (frictionless balls).
+    pass will carry. Balls and both raceways carry the same load (frictionless balls). A
+    history at the output times, for plots; `lp_life` integrates the same loads over the
+    solution itself (``sol.fatigue``).
     """
     if ring not in ("inner", "outer"):
         raise ValueError(f"ring must be 'inner' or 'outer'; got {ring!r}.")
@@ -161,18 +200,9 @@ def ring_point_loads(
 
 @jit
 def _ring_point_loads(joint, body, q, qd, k):
-    nb = joint.bearing.n_balls
-    theta = jnp.zeros(q.shape[0], q.dtype) if body == GROUND else q[:, 3 * body + 2]
-    e, v = jax.vmap(joint.eccentricity)(q, qd)
-    offsets = 2.0 * jnp.pi * jnp.arange(k) / (nb * k)
-
-    def at(e_t, v_t, th_t):
-        return jax.vmap(lambda o: bearing_law.ball_loads(e_t, v_t, th_t + o, joint.bearing))(
-            offsets
-        )
-
-    loads = jax.vmap(at)(e, v, theta)  # (T, k, Z): point index r k + j sits at 2 pi (r k + j)/(Z k)
-    return jnp.swapaxes(loads, 1, 2).reshape(q.shape[0], nb * k)
+    row = 0 if body == joint.inner_body else 1
+    m = joint.bearing.n_balls * k
+    return jax.vmap(lambda q_, qd_: joint.ring_point_loads(q_, qd_, m)[row])(q, qd)
 
 
 def lp_life(
@@ -184,7 +214,7 @@ def lp_life(
     t_min=T_MIN,
     t_max=None,
     rotating: Literal["inner", "outer"] | None = None,
-    points_per_ball: int = 8,
+    points_per_ball: int | None = None,
     b_m=B_M,
     reduction=ISO_REDUCTION,
     bearing: int = 0,
@@ -197,7 +227,8 @@ def lp_life(
 
     Which ring turns relative to the load? In a mechanism the load direction turns too, so the
     default (``rotating=None``) assumes nothing: it follows the material points of each ring
-    (`ring_point_loads`) through the simulated load field and applies `ring_equivalent_load`,
+    (`ring_point_loads`) through the simulated load field and applies `ring_equivalent_load`'s
+    rule,
     which reduces to Harris' exponent-3 mean for a ring that rotates uniformly relative to a
     steady load and to the exponent-10/3 mean for one that does not, and also covers what lies
     between. In `cases.xu2014` without impact the bearing force is dominated by the
@@ -207,43 +238,52 @@ def lp_life(
     revolution (the rod swings periodically with the crank, and sweeps past the load at a speed
     that varies by a factor 2.4), so its equivalent load lies between Harris' rotating and
     stationary values. ``rotating="inner"`` or ``"outer"`` instead applies Harris' textbook
-    rule to ``sol.ball_loads``: the named ring rotates relative to the load (p = 3 over balls
+    rule to the ball loads: the named ring rotates relative to the load (p = 3 over balls
     and time), the other is stationary (p = 10/3), see `ball_equivalent_load`; for
     `cases.xu2014` the kinematically apt choice is ``"inner"``.
+
+    Every mean is an integral of the solution (``sol.fatigue``: Gauss–Legendre quadrature of
+    each accepted step's interpolant), not of the output times.
 
     Args:
         sol, model: a `simulate` result and its model.
         groove_inner, groove_outer: raceway conformities f = r/D (`BallBearing` does not store
             them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
             0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
-        t_min, t_max: window [s].
+        t_min, t_max: window [s]; its edges must be ends of the solve's stop intervals (t0,
+            `T_MIN`, the time cells' ends, simulate's ``window_edges``, t1).
         rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
-        points_per_ball: ring points per ball spacing for ``rotating=None``.
+        points_per_ball: ring points per ball spacing for ``rotating=None``: the solve follows
+            `solution.RING_POINTS_PER_BALL`; None or that number.
         b_m, reduction: factors of the ratings, see `ball_race_load_ratings`.
         bearing: index of the bearing joint (0).
     """
+    if rotating not in (None, "inner", "outer"):
+        raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
     _check_solution(sol, bearing)
+    if points_per_ball is not None and points_per_ball != RING_POINTS_PER_BALL:
+        raise ValueError(
+            f"points_per_ball: the solution follows {RING_POINTS_PER_BALL} points of each ring "
+            f"per ball (solution.RING_POINTS_PER_BALL); got {points_per_ball}."
+        )
     z, d, dm = _bearing_geometry(model, bearing)
     q_ci, q_co = ball_race_load_ratings(
         z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
     )
-    rel = relative_speed(sol, model, bearing)
+    integrals, inner, outer = _window_integrals(sol, t_min, t_max)
+    revolutions = integrals[FAT_REVOLUTIONS]
     if rotating is None:
-        loads = {
-            r: ring_point_loads(sol, model, r, points_per_ball, bearing) for r in ("inner", "outer")
-        }
-        q_ei = ring_equivalent_load(sol.ts, loads["inner"], rel, t_min, t_max)
-        q_eo = ring_equivalent_load(sol.ts, loads["outer"], rel, t_min, t_max)
-    elif rotating in ("inner", "outer"):
-        p_i, p_o = (3.0, 10.0 / 3.0) if rotating == "inner" else (10.0 / 3.0, 3.0)
-        q_ei = ball_equivalent_load(sol.ts, sol.ball_loads, rel, p_i, t_min, t_max)
-        q_eo = ball_equivalent_load(sol.ts, sol.ball_loads, rel, p_o, t_min, t_max)
+        q_ei = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(inner, revolutions)), 1.0 / 3.0)
+        q_eo = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(outer, revolutions)), 1.0 / 3.0)
     else:
-        raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
+        cubed = FORCE_SCALE * _safe_power(_mean(integrals[FAT_BALL_CUBED], revolutions), 1 / 3)
+        power = _mean(integrals[FAT_BALL_TEN_THIRDS], revolutions)
+        ten_thirds = FORCE_SCALE * _safe_power(power, 0.3)
+        q_ei, q_eo = (cubed, ten_thirds) if rotating == "inner" else (ten_thirds, cubed)
     inv_i = _safe_power(q_ei / q_ci, 3.0)
     inv_o = _safe_power(q_eo / q_co, 3.0)
     l10 = _combine(inv_i, inv_o)
-    n = mean_speed_rpm(sol.ts, rel, t_min, t_max)
+    n = 60.0 * revolutions / integrals[FAT_TIME]
     return LPLife(
         q_ci, q_co, q_ei, q_eo, _safe_ratio(1.0, inv_i), _safe_ratio(1.0, inv_o), l10, n,
         1e6 * l10 / (60.0 * n),
@@ -304,3 +344,6 @@ def metric(
 def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Array:
     result = _life_function(method)(sol, model, **kwargs)
     return result.l10_hours if unit == "hours" else result.l10
+
+
+_l10.sample_free = True  # reads sol.fatigue, not the output samples (`_sweep.needs_samples`)

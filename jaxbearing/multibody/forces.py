@@ -133,6 +133,26 @@ class BearingJoint(AbstractForceElement):
         cage = self.cage_angle(t, q, q0, qd0)
         return bearing_law.ball_loads(e, v, cage, self.bearing, engaged), cage
 
+    def relative_speed(self, q, qd):
+        """omega_inner - omega_outer [rad/s]: the rings turn relative to each other at it, and
+        fatigue counts the revolutions it turns."""
+        inner = _angle_and_speed(q, qd, self.inner_body)[1]
+        return inner - _angle_and_speed(q, qd, self.outer_body)[1]
+
+    def ring_point_loads(self, q, qd, n_points: int):
+        """(2, n_points) loads [N] at points fixed in the inner ring (row 0) and the outer ring
+        (row 1): point k at 2 pi k / n_points in its ring body's frame, loaded as a ball placed
+        there would be (`laws.bearing.ring_point_loads`)."""
+        e, v = self.eccentricity(q, qd)
+        return jnp.stack(
+            [
+                bearing_law.ring_point_loads(
+                    e, v, _angle_and_speed(q, qd, body)[0], n_points, self.bearing
+                )
+                for body in (self.inner_body, self.outer_body)
+            ]
+        )
+
     def force(self, t, q, qd, q0, qd0, engaged=None):
         """Resultant on the outer-race body [N] (Eq. 28)."""
         loads, cage = self.ball_loads(t, q, qd, q0, qd0, engaged)

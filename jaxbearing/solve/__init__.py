@@ -1,17 +1,18 @@
 """Integration of a `Mechanism` with diffrax: the only place that calls `diffeqsolve`.
 
 `simulate` (in `_simulate`) runs the segment loop (`_segment`) between the stops (`_stops`) with
-the recording solver (`_recording`), which records the `SegmentStats` the metrics read; the
+the recording solver (`_recording`), which records the `SegmentStats` the metrics read and the `FatigueStats` the life reads; the
 progress bar lives in `_progress`. The result types are in `jaxbearing.solution`.
 """
 
-from ..solution import RESULTS, Contacts, SegmentStats, SimulationError, Solution
+from ..solution import RESULTS, Contacts, FatigueStats, SegmentStats, SimulationError, Solution
 from ._simulate import default_max_segments, default_solver, kvaerno5, simulate
 from ._stops import default_output_block
 
 __all__ = [
     "RESULTS",
     "Contacts",
+    "FatigueStats",
     "SegmentStats",
     "SimulationError",
     "Solution",

@@ -1,7 +1,8 @@
-"""The recording solver: the user's solver plus the `SegmentStats` of every accepted step.
+"""The recording solver: the user's solver plus the `SegmentStats` and the `FatigueStats`
+integrals of every accepted step.
 
 Each step contributes the forces at its end and at its 3 Gauss–Legendre points, and their
-Gauss–Legendre quadrature over the step (`jaxbearing.solution.SegmentStats`).
+Gauss–Legendre quadrature over the step (`jaxbearing.solution`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import jax.numpy as jnp
 
 from ..laws import bearing as bearing_law
 from ..multibody.mechanism import Mechanism
-from ..solution import FORCE_SCALE, POWER
+from ..solution import FORCE_SCALE, POWER, RING_POINTS_PER_BALL
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
 GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
@@ -45,47 +46,83 @@ def _forces(model, t, q, qd, approach_speeds, engaged):
     return out
 
 
-def _quantities(model, t, y, args):
-    """The peak candidates (3 + n,) and the integrands (5,) of `SegmentStats` at one state."""
-    approach, _, engaged = args
-    n = model.n_coordinates
-    q, qd = y[:n], y[n:]
-    f = _forces(model, t, q, qd, approach, engaged)
-    zero = jnp.zeros((), y.dtype)
-    loads = f.get("ball_loads", zero[None])
-    resultant = f.get("bearing_force", jnp.zeros(2, y.dtype))
-    squared = jnp.sum(resultant * resultant)
-    magnitude = jnp.sqrt(squared + 1e-30)
+def _peaks(model, q, f):
+    """The peak candidates (3 + n,) of `SegmentStats` at one state with forces ``f``."""
+    zero = jnp.zeros((), q.dtype)
     contact = f.get("contact_force", zero)
-    peaks = jnp.concatenate(
-        [jnp.stack([jnp.max(loads), magnitude, contact]), jnp.abs(q - model.q0)]
+    return jnp.concatenate(
+        [jnp.stack([jnp.max(f.get("ball_loads", zero[None])), _magnitude(f), contact]), jnp.abs(q - model.q0)]
     )
-    integrands = jnp.stack(
+
+
+def _magnitude(f):
+    """|F| [N] of the bearing resultant in ``f`` (0 without a bearing)."""
+    resultant = f.get("bearing_force", jnp.zeros(2))
+    return jnp.sqrt(jnp.sum(resultant * resultant) + 1e-30)
+
+
+def _integrands(t, f):
+    """The integrands (5,) of `SegmentStats` at one state with forces ``f``."""
+    zero = jnp.zeros((), t.dtype)
+    magnitude = _magnitude(f)
+    return jnp.stack(
         [
-            squared,
-            jnp.sum((loads / FORCE_SCALE) ** POWER),
+            magnitude * magnitude,
+            jnp.sum((f.get("ball_loads", zero[None]) / FORCE_SCALE) ** POWER),
             (magnitude / FORCE_SCALE) ** POWER,
-            (contact / FORCE_SCALE) ** POWER,
+            (f.get("contact_force", zero) / FORCE_SCALE) ** POWER,
             jnp.ones_like(t),
         ]
     )
-    return peaks, integrands
+
+
+def _fatigue_integrands(model, q, qd, f):
+    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f``; (0,)
+    without a bearing."""
+    if not model.bearings:
+        return jnp.zeros((0,), q.dtype)
+    joint = model.bearings[0]
+    w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
+    balls = f["ball_loads"] / FORCE_SCALE
+    force = f["bearing_force"] / FORCE_SCALE
+    points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
+    scalars = jnp.stack(
+        [
+            jnp.ones_like(w),
+            w,
+            w * jnp.sum(force * force) ** 1.5,
+            w * jnp.mean(balls**3),
+            w * jnp.mean(balls ** (10.0 / 3.0)),
+        ]
+    )
+    return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
 
 
 def _step_stats(model, interpolation, t_a, t_b, args):
-    """Peaks and integrals over [t_a, t_b] of one step's interpolant: the values at t_b and at
-    the 3 Gauss–Legendre points, and their Gauss–Legendre quadrature."""
+    """Peaks and integrals over [t_a, t_b] of one step's interpolant: peaks at t_b and at the 3
+    Gauss–Legendre points, the Gauss–Legendre quadrature of the `SegmentStats` and
+    `FatigueStats` integrands."""
+    approach, _, engaged = args
+    n = model.n_coordinates
     times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
     ys = jax.vmap(interpolation.evaluate)(times)
-    peaks, integrands = jax.vmap(lambda t, y: _quantities(model, t, y, args))(times, ys)
-    integral = (t_b - t_a) * (jnp.asarray(GAUSS_WEIGHTS) @ integrands[:3])
-    return jnp.max(peaks, axis=0), integral
+    q, qd = ys[:, :n], ys[:, n:]
+    f = jax.vmap(lambda t, q_, qd_: _forces(model, t, q_, qd_, approach, engaged))(times, q, qd)
+    peaks = jax.vmap(lambda q_, f_: _peaks(model, q_, f_))(q, f)
+    gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
+    integrands = jax.vmap(_integrands)(times[:3], gauss)
+    fatigue = jax.vmap(lambda q_, qd_, f_: _fatigue_integrands(model, q_, qd_, f_))(
+        q[:3], qd[:3], gauss
+    )
+    weights = (t_b - t_a) * jnp.asarray(GAUSS_WEIGHTS)
+    return jnp.max(peaks, axis=0), weights @ integrands, weights @ fatigue
 
 
 class _Recording(diffrax.AbstractAdaptiveSolver):
     """The user's solver, plus the `SegmentStats` of the steps it takes.
 
-    State: (inner state, (peaks, integrals) over all accepted steps but the latest, the latest
+    State: (inner state, (peaks, integrals, fatigue integrals) over all accepted steps but the
+    latest, the latest
     accepted step (t0, t1, dense_info)). Each step adds its predecessor's stats: diffrax keeps
     the old state when it rejects a step, so only accepted steps count, and the latest one is
     left open, so that `_close` counts it up to the end of the segment, which lies before its t1
@@ -123,7 +160,11 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
             lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
         )
         k = 3 + self.model.n_coordinates
-        stats = (jnp.full(k, -jnp.inf, y0.dtype), jnp.zeros(5, y0.dtype))
+        stats = (
+            jnp.full(k, -jnp.inf, y0.dtype),
+            jnp.zeros(5, y0.dtype),
+            jnp.zeros(fatigue_size(self.model), y0.dtype),
+        )
         t0 = jnp.asarray(t0, y0.dtype)
         return inner, stats, (t0, t0, dense)
 
@@ -147,4 +188,12 @@ def _close(model, solver, last, t_end, args):
 
 
 def _add(stats, more):
-    return jnp.maximum(stats[0], more[0]), stats[1] + more[1]
+    """(peaks, integrals, fatigue integrals) of two spans together."""
+    return jnp.maximum(stats[0], more[0]), stats[1] + more[1], stats[2] + more[2]
+
+
+def fatigue_size(model) -> int:
+    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else 0."""
+    if not model.bearings:
+        return 0
+    return 5 + 2 * RING_POINTS_PER_BALL * model.bearings[0].bearing.n_balls

@@ -15,7 +15,7 @@ from optimistix._solver.bisection import _BisectionState  # state of the subclas
 from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
 from ._progress import _Progress
-from ._recording import _add, _close
+from ._recording import _add, _close, fatigue_size
 from ._stops import _block, _write
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
@@ -85,6 +85,7 @@ class _Carry(NamedTuple):
     out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
     out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
     out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
+    fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
     result: RESULTS
     steps: jax.Array
@@ -160,6 +161,7 @@ def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
         out_y=jnp.full((n_outputs + block, 2 * n), jnp.nan),
         out_approach=jnp.zeros((n_outputs + block, n_contacts)),
         out_engaged=jnp.zeros((n_outputs + block, n_balls), bool),
+        fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model))),
         done=jnp.asarray(False),
         result=RESULTS.successful,
         steps=jnp.asarray(0),
@@ -291,7 +293,7 @@ def segment(s: _Setup, c: _Carry, slot):
     ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
-    peaks, integrals = _add(stats, _close(s.model, s.solver, last, t_end, args))
+    peaks, integrals, fatigue = _add(stats, _close(s.model, s.solver, last, t_end, args))
     out_y, out_approach, out_engaged = _write_outputs(s, c, k, save_ts, ys, t_end)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
@@ -316,6 +318,7 @@ def segment(s: _Setup, c: _Carry, slot):
         out_y=out_y,
         out_approach=out_approach,
         out_engaged=out_engaged,
+        fatigue=c.fatigue.at[c.cell].add(jnp.where(c.done, 0.0, fatigue)),
         done=finished,
         result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
         steps=c.steps + jnp.where(c.done, 0, sol.stats["num_steps"]),

@@ -38,7 +38,15 @@ from .. import _checks
 from .._checks import is_concrete
 from ..compile import jit
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, WINDOW_START, Contacts, SegmentStats, SimulationError, Solution
+from ..solution import (
+    RESULTS,
+    WINDOW_START,
+    Contacts,
+    FatigueStats,
+    SegmentStats,
+    SimulationError,
+    Solution,
+)
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import _Setup, initial_carry, make_event, resumable, segment
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
@@ -300,6 +308,7 @@ def _simulate(
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
+    fatigue = _fatigue_stats(final.fatigue, setup.stops, t0, t_final) if model.bearings else None
     return _outputs(
         model,
         ts,
@@ -308,6 +317,7 @@ def _simulate(
         final.out_engaged[:T],
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         SegmentStats(*segment_stats, used),
+        fatigue,
         result,
         t_final,
         final.steps,
@@ -316,8 +326,19 @@ def _simulate(
     )
 
 
+def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
+    """`FatigueStats` from the integrals of each stop interval (n_stops, 5 + 2 M)."""
+    t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), t_final)
+    t_end = jnp.minimum(stops, t_final)
+    m = (integrals.shape[1] - 5) // 2
+    return FatigueStats(
+        t_start, t_end, integrals[:, :5], integrals[:, 5 : 5 + m], integrals[:, 5 + m :], t_end > t_start
+    )
+
+
 def _outputs(
-    model, ts, ys, approach, engaged, contacts, segments, result, t_final, steps, rejected, n_used
+    model, ts, ys, approach, engaged, contacts, segments, fatigue, result, t_final, steps, rejected,
+    n_used,
 ):
     n = model.n_coordinates
     q, qd = ys[:, :n], ys[:, n:]
@@ -349,6 +370,7 @@ def _outputs(
         drift=o["drift"],
         contacts=contacts,
         segments=segments,
+        fatigue=fatigue,
         result=result,
         t_final=t_final,
         num_steps=steps,
