@@ -45,7 +45,7 @@ from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 256  # output times evaluated together (forces, accelerations) after the solve
-SEGMENT_STEPS = 64  # default steps after which a segment pauses: the rows of its dense output
+SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
 
