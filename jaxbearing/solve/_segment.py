@@ -17,7 +17,6 @@ from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
 from ._progress import _Progress
 from ._recording import _add, _close
-from ._stops import _write
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
@@ -86,7 +85,7 @@ class _Carry(NamedTuple):
     out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
     out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
     out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
-    # (``block`` rows of padding at the end, so that a block's write always fits)
+    # (``block`` rows of padding at the end take a block's rows past its segment's end)
     done: jax.Array  # reached t1 or failed
     result: RESULTS
     steps: jax.Array
@@ -294,23 +293,20 @@ def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
 
     def body(carry):
         i, out_y, out_approach, out_engaged = carry
-        start = first + i * block
-        index = start + rows
+        index = first + i * block + rows
         times = jnp.clip(ts[jnp.minimum(index, n_outputs - 1)], c.t, t_end)
-        mine = index < end
         ys = _states_at(dense, times, c.y)
-        return (
-            i + 1,
-            _write(out_y, start, ys, mine),
-            _write(out_approach, start, approach, mine),
-            _write(out_engaged, start, engaged, mine),
-        )
+        # rows past the segment's end go to the padding: every output row is written once
+        at = jnp.where(index < end, index, n_outputs + rows)
+        put = lambda buffer, x: buffer.at[at].set(x, indices_are_sorted=True, unique_indices=True)
+        return i + 1, put(out_y, ys), put(out_approach, approach), put(out_engaged, engaged)
 
     _, *out = eqxi.while_loop(
         lambda carry: first + carry[0] * block < end,
         body,
         (jnp.asarray(0), c.out_y, c.out_approach, c.out_engaged),
         max_steps=-(-n_outputs // block),
+        buffers=lambda carry: carry[1:],
         kind=_loop_kind(s.adjoint),
     )
     return out

@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import diffrax
 import equinox as eqx
-import jax
 import jax.numpy as jnp
-
 
 OUTPUT_BLOCK = 64  # output times a segment evaluates and writes together (`default_output_block`)
 
@@ -26,14 +24,6 @@ def default_output_block(ts) -> int:
     """Output times a segment evaluates and writes together: `OUTPUT_BLOCK`, or all of ``ts``
     when fewer."""
     return min(OUTPUT_BLOCK, ts.shape[0])
-
-
-def _write(buffer, k, rows, mask):
-    """``buffer[k : k + len(rows)] = rows`` where ``mask``; ``buffer`` has len(rows) rows of
-    padding at its end, so the slice always fits."""
-    old = jax.lax.dynamic_slice_in_dim(buffer, k, rows.shape[0])
-    mask = mask.reshape(mask.shape + (1,) * (rows.ndim - 1))
-    return jax.lax.dynamic_update_slice_in_dim(buffer, jnp.where(mask, rows, old), k, 0)
 
 
 def _with_root_tolerances(solver, controller):
