@@ -19,7 +19,7 @@ def _model():
 
 
 def test_pauses_leave_the_solution_unchanged_to_the_last_bit():
-    plain = jb.simulate(_model(), T1, TS)
+    plain = jb.simulate(_model(), T1, TS)  # pausing every SEGMENT_STEPS steps
     for k in (8, 64):
         paused = jb.simulate(_model(), T1, TS, segment_steps=k)
         assert int(paused.num_segments) > int(plain.num_segments)  # it did pause

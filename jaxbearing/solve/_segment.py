@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import diffrax
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import optimistix as optx
@@ -16,7 +17,6 @@ from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
 from ._progress import _Progress
 from ._recording import _add, _close, fatigue_size
-from ._stops import _block, _write
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
@@ -67,9 +67,9 @@ class _Resumable(diffrax.AbstractStepSizeController):
         return keep, tprev, tnext, jump, (inner, tnext - tprev), result
 
 
-def resumable(controller, segment_steps):
-    """The controller a solve with pauses every ``segment_steps`` steps uses (None: as given)."""
-    return controller if segment_steps is None else _Resumable(controller)
+def resumable(controller):
+    """The controller of a segment's solve: ``controller``, resumable after a pause."""
+    return _Resumable(controller)
 
 
 class _Carry(NamedTuple):
@@ -85,6 +85,7 @@ class _Carry(NamedTuple):
     out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
     out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
     out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
+    # (``block`` rows of padding at the end take a block's rows past its segment's end)
     fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
     result: RESULTS
@@ -111,8 +112,8 @@ class _Setup(NamedTuple):
     controller: diffrax.AbstractStepSizeController
     event: diffrax.Event | None
     max_steps: int
-    segment_steps: int | None  # steps after which a segment pauses (None: never)
-    block: int  # output times one segment may write
+    segment_steps: int  # steps after which a segment pauses (its dense output's rows)
+    block: int  # output times evaluated and written together
     progress: str | None
     adjoint: diffrax.AbstractAdjoint
 
@@ -172,27 +173,24 @@ def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
         began=t0,
         accepted=jnp.asarray(0),
     )
-    if s.segment_steps is None:
-        return carry
     args = (carry.approach, carry.in_contact, carry.engaged)
     _, control = s.controller.init(s.term, t0, t1, y0, carry.dt, args, s.recording.func, None)
     return carry._replace(control=jax.tree_util.tree_map(jnp.asarray, control))
 
 
-def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
-    """diffrax's solve of [c.t, t_stop], saving at ``save_ts`` and at its end."""
+def _solve(s: _Setup, c: _Carry, t_stop, args):
+    """diffrax's solve of [c.t, t_stop] for at most ``segment_steps`` steps, saving its end and
+    its accepted steps' interpolants (dense output)."""
     meter = (
         diffrax.NoProgressMeter()
         if s.progress is None
         else _Progress(t_start=c.t, t_stop=t_stop, t0=s.t0, t1=s.t1, label=s.progress)
     )
     dt0 = jnp.minimum(c.dt, t_stop - c.t)
-    resumed = {}
-    if s.segment_steps is not None:  # a paused segment goes on with its controller's state
-        fresh = s.controller.init(s.term, c.t, t_stop, c.y, dt0, args, s.recording.func, None)[1]
-        state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
-        dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
-        resumed = dict(controller_state=jax.lax.stop_gradient(state))
+    # a paused segment goes on with its controller's state
+    fresh = s.controller.init(s.term, c.t, t_stop, c.y, dt0, args, s.recording.func, None)[1]
+    state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
+    dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
     return diffrax.diffeqsolve(
         s.term,
         s.recording,
@@ -201,18 +199,14 @@ def _solve(s: _Setup, c: _Carry, t_stop, save_ts, args):
         dt0,
         c.y,
         args=args,
-        saveat=diffrax.SaveAt(
-            subs=[diffrax.SubSaveAt(ts=save_ts), diffrax.SubSaveAt(t1=True)],
-            solver_state=True,
-            controller_state=s.segment_steps is not None,
-        ),
+        saveat=diffrax.SaveAt(t1=True, dense=True, solver_state=True, controller_state=True),
         stepsize_controller=s.controller,
         event=s.event,
-        max_steps=s.max_steps if s.segment_steps is None else s.segment_steps,
+        max_steps=s.segment_steps,
         throw=False,
         progress_meter=meter,
         adjoint=s.adjoint,
-        **resumed,
+        controller_state=jax.lax.stop_gradient(state),
     )
 
 
@@ -226,13 +220,10 @@ def _end(s: _Setup, c: _Carry, sol, last):
     member without one to the end of its last *attempted* step (possibly a rejected one, at a
     pause) and interpolates its state there. ``last`` is the recording solver's latest accepted
     step (t0, t1, dense_info)."""
-    (_, t_end), (_, y_end) = sol.ts, sol.ys
-    t_end, y_end = t_end[0], y_end[0]
-    paused, control, since = jnp.asarray(False), None, c.since
-    if s.segment_steps is not None:
-        since = c.since + sol.stats["num_steps"]
-        paused = (sol.result == diffrax.RESULTS.max_steps_reached) & (since < s.max_steps)
-        control = jax.lax.stop_gradient(sol.controller_state)
+    t_end, y_end = sol.ts[0], sol.ys[0]
+    since = c.since + sol.stats["num_steps"]
+    paused = (sol.result == diffrax.RESULTS.max_steps_reached) & (since < s.max_steps)
+    control = jax.lax.stop_gradient(sol.controller_state)
     if s.event is not None:
         settled = sol.result != diffrax.RESULTS.event_occurred
         t_end = jnp.where(settled, last[1], t_end)
@@ -266,16 +257,61 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
     return approach, in_contact, engaged, record
 
 
-def _write_outputs(s: _Setup, c: _Carry, k, save_ts, ys, t_end):
-    """The output buffers with this segment's block of times in [t_start, t_end], each
-    written once."""
-    n_contacts, n_balls = len(s.model.contacts), s.model.n_switched_balls
-    mine = save_ts <= t_end  # False for NaN
-    return (
-        _write(c.out_y, k, ys, mine),
-        _write(c.out_approach, k, jnp.broadcast_to(c.approach, (s.block, n_contacts)), mine),
-        _write(c.out_engaged, k, jnp.broadcast_to(c.engaged, (s.block, n_balls)), mine),
+def _loop_kind(adjoint) -> str:
+    """The kind of `eqxi.while_loop` that ``adjoint`` differentiates, as diffrax picks it for its
+    own loops: "checkpointed" (reverse mode) for `diffrax.RecursiveCheckpointAdjoint`, "bounded"
+    (both modes) for `diffrax.DirectAdjoint`, "lax" (forward mode) for the others."""
+    if isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint):
+        return "checkpointed"
+    return "bounded" if isinstance(adjoint, diffrax.DirectAdjoint) else "lax"
+
+
+def _states_at(dense: diffrax.DenseInterpolation, times, y0):
+    """States [q, qd] at ``times`` [s] from the interpolant of the accepted step that ends at or
+    after each (as diffrax saves at given times); ``y0`` where the solve took no step."""
+
+    def one(t):
+        i = jnp.clip(jnp.searchsorted(dense.ts, t, side="left") - 1, 0, jnp.maximum(dense.ts_size - 2, 0))
+        info = jax.tree_util.tree_map(lambda x: x[i], dense.infos)
+        return dense.interpolation_cls(t0=dense.ts[i], t1=dense.ts[i + 1], **info).evaluate(t)
+
+    return jnp.where(dense.ts_size > 1, jax.vmap(one)(times), y0)
+
+
+def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
+    """The output buffers with this segment's output times written: those in [c.t, t_end), and
+    t_end as well where the run ends (``through_end``), so that each time is written exactly
+    once, by the last segment that starts at or before it. A loop over blocks of ``s.block``
+    times, each evaluated from the segment's dense output and written at once."""
+    ts, block = s.ts, s.block
+    n_outputs, rows = ts.shape[0], jnp.arange(block)
+    first = jnp.searchsorted(ts, c.t, side="left")
+    end = jnp.where(
+        through_end, jnp.searchsorted(ts, t_end, side="right"), jnp.searchsorted(ts, t_end, side="left")
     )
+    end = jnp.where(c.done, first, end)
+    approach = jnp.broadcast_to(c.approach, (block,) + c.approach.shape)
+    engaged = jnp.broadcast_to(c.engaged, (block,) + c.engaged.shape)
+
+    def body(carry):
+        i, out_y, out_approach, out_engaged = carry
+        index = first + i * block + rows
+        times = jnp.clip(ts[jnp.minimum(index, n_outputs - 1)], c.t, t_end)
+        ys = _states_at(dense, times, c.y)
+        # rows past the segment's end go to the padding: every output row is written once
+        at = jnp.where(index < end, index, n_outputs + rows)
+        put = lambda buffer, x: buffer.at[at].set(x, indices_are_sorted=True, unique_indices=True)
+        return i + 1, put(out_y, ys), put(out_approach, approach), put(out_engaged, engaged)
+
+    _, *out = eqxi.while_loop(
+        lambda carry: first + carry[0] * block < end,
+        body,
+        (jnp.asarray(0), c.out_y, c.out_approach, c.out_engaged),
+        max_steps=-(-n_outputs // block),
+        buffers=lambda carry: carry[1:],
+        kind=_loop_kind(s.adjoint),
+    )
+    return out
 
 
 def segment(s: _Setup, c: _Carry, slot):
@@ -284,17 +320,14 @@ def segment(s: _Setup, c: _Carry, slot):
     # finished members (reached t1, or failed: then t is set to t1 with the stop where it
     # failed) idle in zero-length solves, never backwards from t1 to their stop
     t_stop = jnp.where(c.done, c.t, s.stops[c.cell])
-    k, save_ts = _block(s.ts, c.t, t_stop, c.done, s.block)
     args = (c.approach, c.in_contact, c.engaged)
-    sol = _solve(s, c, t_stop, save_ts, args)
-    ys = sol.ys[0]
+    sol = _solve(s, c, t_stop, args)
     _, stats, last = sol.solver_state
     t_end, y_end, paused, since, control = _end(s, c, sol, last)
     ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
     peaks, integrals, fatigue = _add(stats, _close(s.model, s.solver, last, t_end, args))
-    out_y, out_approach, out_engaged = _write_outputs(s, c, k, save_ts, ys, t_end)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
     if s.event is not None:
@@ -302,6 +335,7 @@ def segment(s: _Setup, c: _Carry, slot):
     t_reached = jnp.where(c.done, c.t, t_end)
     cell_done = ok & ~hit & ~paused
     finished = c.done | ~ok | (cell_done & ((c.cell == s.stops.shape[0] - 1) | (t_stop >= s.t1)))
+    out_y, out_approach, out_engaged = _write_outputs(s, c, sol.interpolation, t_end, finished)
     # the next segment starts with the mean accepted step of this one, its paused parts included
     # (no step-size search; no gradient through the step sizes, as in diffrax's controllers)
     accepted = sol.stats["num_accepted_steps"] + jnp.where(c.resume, c.accepted, 0)

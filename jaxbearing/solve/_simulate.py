@@ -52,7 +52,8 @@ from ._segment import _Setup, initial_carry, make_event, resumable, segment
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
-OUTPUT_BATCH = 1024  # output times evaluated together (forces, accelerations) after the solve
+OUTPUT_BATCH = 256  # output times evaluated together (forces, accelerations) after the solve
+SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
 
@@ -114,12 +115,14 @@ def simulate(
             run fails if it needs more. Default: `default_max_segments`.
         segment_steps: steps after which a segment pauses; the next iteration of the segment
             loop resumes it with the step-size controller's state and proposed step, so the
-            solution is the same, to the last bit, as without pauses. Under `jax.vmap` the
-            members run in lock-step, segment by segment: with pauses a member that reached an
-            event waits for the others at most ``segment_steps`` steps, not until the longest
-            segment of the batch ends, which is what makes batches (sweeps) fast. None (the
-            default): no pauses, the cheapest for a single run. `jaxbearing.sweep` pauses
-            every ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
+            solution is the same, to the last bit, whatever the pauses. A segment keeps the
+            interpolants of its steps (diffrax's dense output, ``segment_steps`` rows) and
+            evaluates the output times inside it from them. Under `jax.vmap` the members run
+            in lock-step, segment by segment: a member that reached an event waits for the
+            others at most ``segment_steps`` steps, not until the longest segment of the batch
+            ends, which is what makes batches (sweeps) fast. None (the default):
+            `SEGMENT_STEPS`; at most ``max_steps``. `jaxbearing.sweep` pauses every
+            ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver.
@@ -127,8 +130,8 @@ def simulate(
             can use them as window edges (a metric over a window needs its edges to be segment
             ends; `WINDOW_START`, the default window's start, always is). A tuple: its length
             is part of the compiled solve.
-        output_block: output times one segment may write; default `default_output_block`, the most
-            that fall in one time cell, so that each output time costs one write.
+        output_block: output times a segment evaluates from its interpolants and writes
+            together; default `default_output_block`. Any value gives the same outputs.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
@@ -150,12 +153,13 @@ def simulate(
         raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     if max_segments is None:
         max_segments = default_max_segments(model, t0, t1, segment_steps)
+    segment_steps = min(SEGMENT_STEPS if segment_steps is None else int(segment_steps), max_steps)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
     if time_cells < 1:
         raise ValueError(f"time_cells must be at least 1; got {time_cells}.")
     if output_block is None:
-        output_block = default_output_block(ts, t0, t1, time_cells)
+        output_block = default_output_block(ts)
     if not 1 <= output_block:
         raise ValueError(f"output_block must be at least 1; got {output_block}.")
     output_block = min(int(output_block), ts.shape[0])
@@ -194,9 +198,8 @@ def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = N
     the event counts of the paper's case."""
     events = bool(model.contacts) or bool(model.n_switched_balls)
     span = max(float(t1) - float(t0) if is_concrete(t1, t0) else 1.0, 0.0)
-    allowed = (64 + EVENT_RATE * span if events else 1) + (
-        0 if segment_steps is None else STEP_RATE * span / segment_steps
-    )
+    steps = SEGMENT_STEPS if segment_steps is None else segment_steps
+    allowed = (64 + EVENT_RATE * span if events else 1) + STEP_RATE * span / steps
     return 1 << math.ceil(math.log2(allowed))
 
 
@@ -293,7 +296,7 @@ def _simulate(
         term=diffrax.ODETerm(vector_field),
         recording=_Recording(_for_adjoint(solver, adjoint), model),
         solver=solver,
-        controller=resumable(controller, segment_steps),
+        controller=resumable(controller),
         event=make_event(model),
         max_steps=max_steps,
         segment_steps=segment_steps,

@@ -5,12 +5,9 @@ from __future__ import annotations
 
 import diffrax
 import equinox as eqx
-import jax
 import jax.numpy as jnp
-import numpy as np
 
-from .._checks import is_concrete
-
+OUTPUT_BLOCK = 64  # output times a segment evaluates and writes together (`default_output_block`)
 
 def _stops(t0, t1, time_cells, extra):
     """Times at which segments end, increasing: the ends of the ``time_cells`` equal cells of
@@ -23,38 +20,10 @@ def _stops(t0, t1, time_cells, extra):
     return jnp.sort(jnp.where(repeated, t1, stops))
 
 
-def default_output_block(ts, t0, t1, time_cells: int) -> int:
-    """The most output times in one time cell, ends included (+2 for rounding of the cell
-    ends): a segment never spans more than one cell, so it never writes more. All of ``ts``
-    when ``ts`` or the span are traced."""
-    if not is_concrete(ts, t0, t1):
-        return ts.shape[0]
-    times = np.asarray(ts)
-    edges = np.linspace(float(t0), float(t1), time_cells + 1)
-    first = np.searchsorted(times, edges[:-1], side="left")
-    last = np.searchsorted(times, edges[1:], side="right")
-    return int(min(times.shape[0], np.max(last - first, initial=0) + 2))
-
-
-def _block(ts, t_start, t_stop, done, size):
-    """The ``size`` output times from the first one >= t_start: their index ``k``, and the times
-    inside [t_start, t_stop] with NaN for the others. NaN passes diffrax's range check and never
-    satisfies its save condition ``t_save <= t_next``; finished members (``done``) get only NaN,
-    so their zero-length solves save nothing. (Under vmap diffrax re-runs the step body of
-    members whose loop has ended and discards the result.)"""
-    k = jnp.searchsorted(ts, t_start, side="left")
-    index = k + jnp.arange(size)
-    times = ts[jnp.minimum(index, ts.shape[0] - 1)]
-    inside = (index < ts.shape[0]) & (times <= t_stop) & ~done
-    return k, jnp.where(inside, jnp.clip(times, t_start, t_stop), jnp.nan)
-
-
-def _write(buffer, k, rows, mask):
-    """``buffer[k : k + len(rows)] = rows`` where ``mask``; ``buffer`` has len(rows) rows of
-    padding at its end, so the slice always fits."""
-    old = jax.lax.dynamic_slice_in_dim(buffer, k, rows.shape[0])
-    mask = mask.reshape(mask.shape + (1,) * (rows.ndim - 1))
-    return jax.lax.dynamic_update_slice_in_dim(buffer, jnp.where(mask, rows, old), k, 0)
+def default_output_block(ts) -> int:
+    """Output times a segment evaluates and writes together: `OUTPUT_BLOCK`, or all of ``ts``
+    when fewer."""
+    return min(OUTPUT_BLOCK, ts.shape[0])
 
 
 def _with_root_tolerances(solver, controller):
