@@ -111,8 +111,14 @@ def ring_point_loads(
     """Load [N] that a ball carries when it passes each of ``n_points`` points fixed in a ring,
     shape (n_points,): point k sits at the global angle 2 pi k / n_points + ``ring_angle``
     [rad], and its load is that of `ball_loads` (engaged=None) for a ball placed there."""
-    cos, sin = ball_directions(ring_angle, n_points)
-    return _loads(cos, sin, eccentricity, eccentricity_rate, bearing, None)
+    # e and v in the ring's frame, as reductions: XLA:CPU then computes them once, not again in
+    # every point's element (it fuses scalar producers, cos and sin included, into their
+    # consumers and repeats them there)
+    axis = jnp.stack([jnp.cos(ring_angle), jnp.sin(ring_angle)])
+    normal = jnp.stack([-axis[1], axis[0]])
+    local = [jnp.sum(x * a) for x in (eccentricity, eccentricity_rate) for a in (axis, normal)]
+    pitch = _pitch_angles(n_points)
+    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None)
 
 
 def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
