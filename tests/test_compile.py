@@ -34,8 +34,10 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
     ts = jnp.linspace(0.0, 0.002, 3)
     top = jb.simulate(model, 0.002, ts, time_cells=1)
     nested = jax.jit(lambda m: jb.simulate(m, 0.002, ts, time_cells=1))(model)
-    # other XLA options may round differently: equal within the solver's tolerance
-    np.testing.assert_allclose(nested.q, top.q, rtol=0, atol=1e-9)
+    # other XLA options round differently, and the solver amplifies that up to its accuracy
+    # (the benchmark finds positions within 1e-8 m of a 1000x tighter reference; measured
+    # 7e-9 here, in the rod's angle while it falls onto the race)
+    np.testing.assert_allclose(nested.q, top.q, rtol=0, atol=2e-8)
 
 
 def test_cpu_options_go_to_the_cpu_only():

@@ -127,20 +127,12 @@ def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
     positive = delta > 0.0
     touching = positive if engaged is None or bearing.ball_force == "smooth" else engaged
-    depth = jnp.where(positive, delta, 0.0)
+    depth = jnp.where(positive, delta, 0.0)  # keeps the gradient of depth**n finite
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)
-    force = bearing.stiffness * _power(delta, positive, bearing.exponent) + damping
+    force = bearing.stiffness * depth**bearing.exponent + damping
     return jnp.where(touching, jnp.maximum(force, 0.0), 0.0)
-
-
-def _power(x, positive, exponent: float) -> jax.Array:
-    """x^n where ``positive``, else 0, with finite gradients everywhere; n = 3/2 (balls) as
-    x sqrt(x), cheaper than the general power."""
-    safe = jnp.where(positive, x, 1.0)
-    power = safe * jnp.sqrt(safe) if exponent == 1.5 else safe**exponent
-    return jnp.where(positive, power, 0.0)
 
 
 def resultant(loads, cage_angle) -> jax.Array:

@@ -55,10 +55,15 @@ def _peaks(model, q, f):
     )
 
 
+def _squared(f):
+    """|F|^2 [N^2] of the bearing resultant in ``f`` (0 without a bearing)."""
+    resultant = f.get("bearing_force", jnp.zeros(2))
+    return jnp.sum(resultant * resultant)
+
+
 def _magnitude(f):
     """|F| [N] of the bearing resultant in ``f`` (0 without a bearing)."""
-    resultant = f.get("bearing_force", jnp.zeros(2))
-    return jnp.sqrt(jnp.sum(resultant * resultant) + 1e-30)
+    return jnp.sqrt(_squared(f) + 1e-30)
 
 
 def _integrands(t, f):
@@ -67,7 +72,7 @@ def _integrands(t, f):
     magnitude = _magnitude(f)
     return jnp.stack(
         [
-            magnitude * magnitude,
+            _squared(f),
             jnp.sum((f.get("ball_loads", zero[None]) / FORCE_SCALE) ** POWER),
             (magnitude / FORCE_SCALE) ** POWER,
             (f.get("contact_force", zero) / FORCE_SCALE) ** POWER,
@@ -114,8 +119,16 @@ def _step_stats(model, interpolation, t_a, t_b, args):
     fatigue = jax.vmap(lambda q_, qd_, f_: _fatigue_integrands(model, q_, qd_, f_))(
         q[:3], qd[:3], gauss
     )
-    weights = (t_b - t_a) * jnp.asarray(GAUSS_WEIGHTS)
-    return jnp.max(peaks, axis=0), weights @ integrands, weights @ fatigue
+    h = t_b - t_a
+    return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), h * _gauss_sum(fatigue)
+
+
+def _gauss_sum(values):
+    """sum_i GAUSS_WEIGHTS[i] values[i] over the 3 points, written out rather than a dot: XLA's
+    dot kernels may sum in another order for another batch size, and a sweep member must equal
+    a single run to the last bit whatever its chunk."""
+    w = GAUSS_WEIGHTS
+    return w[0] * values[0] + w[1] * values[1] + w[2] * values[2]
 
 
 class _Recording(diffrax.AbstractAdaptiveSolver):
