@@ -118,11 +118,20 @@ def ring_point_loads(
     normal = jnp.stack([-axis[1], axis[0]])
     local = [jnp.sum(x * a) for x in (eccentricity, eccentricity_rate) for a in (axis, normal)]
     pitch = _pitch_angles(n_points)
-    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None)
+    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None, _cheap_power)
 
 
-def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
-    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]."""
+def _cheap_power(depth, exponent: float):
+    """depth^n for depth >= 0 with finite gradients; n = 3/2 as depth sqrt(depth), cheaper than
+    the general power (which `ball_loads` keeps: the motion's rounding stays as it was)."""
+    if exponent != 1.5:
+        return depth**exponent
+    safe = jnp.where(depth > 0.0, depth, 1.0)
+    return jnp.where(depth > 0.0, safe * jnp.sqrt(safe), 0.0)
+
+
+def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, power=jnp.power):
+    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]; ``power(depth, n)``."""
     delta = eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
     positive = delta > 0.0
@@ -131,7 +140,7 @@ def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)
-    force = bearing.stiffness * depth**bearing.exponent + damping
+    force = bearing.stiffness * power(depth, bearing.exponent) + damping
     return jnp.where(touching, jnp.maximum(force, 0.0), 0.0)
 
 
