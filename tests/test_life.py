@@ -11,6 +11,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -421,6 +422,10 @@ def test_life_of_a_solution_does_not_depend_on_the_output_times(model, simulated
         life.iso_life(uniform, model, t_min=0.0501)
     with pytest.raises(ValueError, match="points_per_ball"):
         life.lp_life(uniform, model, points_per_ball=4)
+    # simulate(..., fatigue=False) records none: the life says what to pass
+    unrecorded = eqx.tree_at(lambda s: s.fatigue, uniform, None, is_leaf=lambda x: x is None)
+    with pytest.raises(ValueError, match="fatigue=True"):
+        life.iso_life(unrecorded, model)
 
 
 # ----------------------------------------------------------------------------------- inputs

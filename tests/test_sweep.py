@@ -293,6 +293,9 @@ def test_default_output_times_are_what_the_metrics_need():
     np.testing.assert_array_equal(times, np.linspace(0.0, T1, _sweep.DEFAULT_SAMPLES))
     own.sample_free = True
     assert not _sweep.needs_samples(own)
+    # members record the life's integrals only for a metric that reads them
+    assert _sweep.arguments.needs_fatigue(METRICS["l10_lp_mrev"])
+    assert not any(_sweep.arguments.needs_fatigue(fn) for fn in (*exact.values(), own))
 
 
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, grid_result):

@@ -39,7 +39,9 @@ How it runs
   (`Solution.segments` and `.fatigue`: `metrics.STANDARD`, `metrics.SMOOTH`, `life.metric`, and
   any function marked with the attribute ``sample_free = True``), so a member's memory does not
   grow with an output count; `DEFAULT_SAMPLES` (2001) equally spaced times when a metric reads
-  the samples (any other function; `arguments.needs_samples` is the rule).
+  the samples (any other function; `arguments.needs_samples` is the rule). Members record the
+  life's integrals (`Solution.fatigue`) only when a metric reads them (`life.metric`;
+  `arguments.needs_fatigue`), unless ``fatigue`` is passed.
 - Chunk size. On CPU devices the default is 16 points per device. A batch runs in lock-step to
   its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
   gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and

@@ -23,6 +23,7 @@ DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024,
 SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: 4, 8, 16 measured)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
+READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
 RESERVED = ("status", "failed", "point")
 NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itself
 # jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
@@ -57,6 +58,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     t1 = float(t1)
     t0 = float(sim_kwargs.get("t0", 0.0))
     sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
+    sim_kwargs.setdefault("fatigue", any(needs_fatigue(fn) for _, fn in items))
     if sim_kwargs.get("max_segments") is None:
         sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
     check_points(model, names, points)
@@ -138,6 +140,14 @@ def needs_samples(fn) -> bool:
     inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
     inner = getattr(inner, "func", inner)  # functools.partial
     return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
+
+
+def needs_fatigue(fn) -> bool:
+    """Whether metric ``fn`` reads ``sol.fatigue`` (`life.metric` does: attribute
+    ``reads_fatigue = True``); members record it only then, unless ``fatigue`` is passed."""
+    inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
+    inner = getattr(inner, "func", inner)  # functools.partial
+    return getattr(inner, READS_FATIGUE, False) is True
 
 
 def output_times(items, t0, t1, ts) -> np.ndarray:

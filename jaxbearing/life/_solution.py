@@ -109,7 +109,7 @@ def _check_solution(sol: Solution, bearing: int):
     if sol.fatigue is None:
         raise ValueError(
             "This solution carries no fatigue integrals (sol.fatigue is None): the life needs a "
-            "solution made by jaxbearing.simulate."
+            "solution made by jaxbearing.simulate with fatigue=True (its default)."
         )
     if bearing != 0:
         raise ValueError("Solutions carry the forces of the first bearing joint only (bearing=0).")
@@ -347,3 +347,4 @@ def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Arra
 
 
 _l10.sample_free = True  # reads sol.fatigue, not the output samples (`_sweep.needs_samples`)
+_l10.reads_fatigue = True  # sweeps record sol.fatigue for it (`_sweep.needs_fatigue`)

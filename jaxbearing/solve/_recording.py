@@ -82,10 +82,8 @@ def _integrands(t, f):
 
 
 def _fatigue_integrands(model, q, qd, f):
-    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f``; (0,)
-    without a bearing."""
-    if not model.bearings:
-        return jnp.zeros((0,), q.dtype)
+    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f`` (a model
+    with a bearing)."""
     joint = model.bearings[0]
     w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
     balls = f["ball_loads"] / FORCE_SCALE
@@ -103,7 +101,7 @@ def _fatigue_integrands(model, q, qd, f):
     return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
 
 
-def _step_stats(model, interpolation, t_a, t_b, args):
+def _step_stats(model, interpolation, t_a, t_b, args, fatigue):
     """Peaks and integrals over [t_a, t_b] of one step's interpolant: peaks at t_b and at the 3
     Gauss–Legendre points, the Gauss–Legendre quadrature of the `SegmentStats` and
     `FatigueStats` integrands."""
@@ -116,11 +114,13 @@ def _step_stats(model, interpolation, t_a, t_b, args):
     peaks = jax.vmap(lambda q_, f_: _peaks(model, q_, f_))(q, f)
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
     integrands = jax.vmap(_integrands)(times[:3], gauss)
-    fatigue = jax.vmap(lambda q_, qd_, f_: _fatigue_integrands(model, q_, qd_, f_))(
+    h = t_b - t_a
+    if not (model.bearings and fatigue):
+        return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), jnp.zeros((0,), q.dtype)
+    life = jax.vmap(lambda q_, qd_, f_: _fatigue_integrands(model, q_, qd_, f_))(
         q[:3], qd[:3], gauss
     )
-    h = t_b - t_a
-    return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), h * _gauss_sum(fatigue)
+    return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), h * _gauss_sum(life)
 
 
 def _gauss_sum(values):
@@ -145,6 +145,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
 
     solver: diffrax.AbstractSolver
     model: Mechanism
+    fatigue: bool = eqx.field(static=True, default=True)  # record the `FatigueStats` integrals
 
     @property
     def term_structure(self):
@@ -176,7 +177,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         stats = (
             jnp.full(k, -jnp.inf, y0.dtype),
             jnp.zeros(5, y0.dtype),
-            jnp.zeros(fatigue_size(self.model), y0.dtype),
+            jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
         )
         t0 = jnp.asarray(t0, y0.dtype)
         return inner, stats, (t0, t0, dense)
@@ -186,7 +187,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         y1, error, dense, inner, result = self.solver.step(
             terms, t0, t1, y0, args, inner, made_jump
         )
-        stats = _add(stats, _close(self.model, self.solver, last, last[1], args))
+        stats = _add(stats, _close(self.model, self.solver, last, last[1], args, self.fatigue))
         t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
         return y1, error, dense, (inner, stats, (t0, t1, dense)), result
 
@@ -194,10 +195,11 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         return self.solver.func(terms, t0, y0, args)
 
 
-def _close(model, solver, last, t_end, args):
+def _close(model, solver, last, t_end, args, fatigue):
     """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]."""
     t_a, t_b, dense = last
-    return _step_stats(model, solver.interpolation_cls(t0=t_a, t1=t_b, **dense), t_a, t_end, args)
+    interpolation = solver.interpolation_cls(t0=t_a, t1=t_b, **dense)
+    return _step_stats(model, interpolation, t_a, t_end, args, fatigue)
 
 
 def _add(stats, more):
@@ -205,8 +207,9 @@ def _add(stats, more):
     return jnp.maximum(stats[0], more[0]), stats[1] + more[1], stats[2] + more[2]
 
 
-def fatigue_size(model) -> int:
-    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else 0."""
-    if not model.bearings:
+def fatigue_size(model, fatigue: bool) -> int:
+    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else (or when not
+    recorded) 0."""
+    if not (model.bearings and fatigue):
         return 0
     return 5 + 2 * RING_POINTS_PER_BALL * model.bearings[0].bearing.n_balls

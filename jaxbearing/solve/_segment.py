@@ -162,7 +162,7 @@ def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
         out_y=jnp.full((n_outputs + block, 2 * n), jnp.nan),
         out_approach=jnp.zeros((n_outputs + block, n_contacts)),
         out_engaged=jnp.zeros((n_outputs + block, n_balls), bool),
-        fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model))),
+        fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model, s.recording.fatigue))),
         done=jnp.asarray(False),
         result=RESULTS.successful,
         steps=jnp.asarray(0),
@@ -327,7 +327,8 @@ def segment(s: _Setup, c: _Carry, slot):
     ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
-    peaks, integrals, fatigue = _add(stats, _close(s.model, s.solver, last, t_end, args))
+    closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
+    peaks, integrals, fatigue = _add(stats, closing)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
     if s.event is not None:

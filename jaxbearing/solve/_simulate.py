@@ -92,6 +92,7 @@ def simulate(
     time_cells: int = 64,
     window_edges: tuple = (),
     output_block: int | None = None,
+    fatigue: bool = True,
     throw: bool = True,
     progress: str | None = None,
     adjoint: diffrax.AbstractAdjoint | None = None,
@@ -132,6 +133,9 @@ def simulate(
             is part of the compiled solve.
         output_block: output times a segment evaluates from its interpolants and writes
             together; default `default_output_block`. Any value gives the same outputs.
+        fatigue: record `Solution.fatigue`, the integrals the bearing's life reads
+            (`jaxbearing.life`; about an eighth of a run of the paper's case, README); False:
+            ``sol.fatigue`` is None and the life functions refuse the solution.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
@@ -183,6 +187,7 @@ def simulate(
         time_cells,
         stops,
         output_block,
+        bool(fatigue),
         progress,
     )
     if throw:
@@ -271,7 +276,7 @@ def _checked_ts(ts, t0, t1):
 @jit
 def _simulate(
     model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells,
-    extra_stops, block, progress, adjoint,
+    extra_stops, block, fatigue, progress, adjoint,
 ):
     rules = model.violations()
     rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
@@ -294,7 +299,7 @@ def _simulate(
         t1=t1,
         stops=_stops(t0, t1, time_cells, extra_stops),
         term=diffrax.ODETerm(vector_field),
-        recording=_Recording(_for_adjoint(solver, adjoint), model),
+        recording=_Recording(_for_adjoint(solver, adjoint), model, fatigue),
         solver=solver,
         controller=resumable(controller),
         event=make_event(model),
@@ -311,7 +316,8 @@ def _simulate(
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
-    fatigue = _fatigue_stats(final.fatigue, setup.stops, t0, t_final) if model.bearings else None
+    recorded = model.bearings and fatigue
+    fatigue = _fatigue_stats(final.fatigue, setup.stops, t0, t_final) if recorded else None
     return _outputs(
         model,
         ts,
