@@ -10,7 +10,14 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+SLOW = {"gradients_and_tuning.ipynb"}  # ~50 s: in the slow set (CI runs it), for the suite's time
+
+
+@pytest.mark.parametrize(
+    "path",
+    [pytest.param(p, marks=pytest.mark.slow) if p.name in SLOW else p for p in NOTEBOOKS],
+    ids=lambda p: p.name,
+)
 def test_notebook_runs(path, monkeypatch):
     monkeypatch.setenv("JAXBEARING_QUICK", "1")
     monkeypatch.setenv("MPLBACKEND", "Agg")

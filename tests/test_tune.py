@@ -36,6 +36,7 @@ def central_difference(model, name, rel_step):
     return (f[0] - f[1]) / (2 * h)
 
 
+@pytest.mark.slow  # ~20 s; tests/test_derivatives.py checks both modes in the default suite
 def test_forward_and_reverse_gradients_match_finite_differences():
     model = rotor_model()
     value_f, grad_f = jb.sensitivity(model, rotor_metric, NAMES, 0.02, ROTOR_TS, mode="forward", **ROTOR_KW)

@@ -123,6 +123,7 @@ def test_kvaerno5_agrees_with_tsit5(ball_force):
     np.testing.assert_allclose(np.asarray(b.ball_loads), np.asarray(a.ball_loads), atol=1.0)
 
 
+@pytest.mark.slow  # ~17 s; tests/test_pauses.py checks vmapped members bit for bit by default
 def test_vmap_over_clearance_with_impact_matches_single_runs():
     """Batched members hit their contact events at different times (the event root find then
     runs for all of them); each must still match its own single run."""
