@@ -1,6 +1,7 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
-`Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`, `SimulationError`),
-the columns of the segment statistics and the start of the default window, each defined once.
+`Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
+`SimulationError`), the columns of the statistics and the start of the default window, each
+defined once.
 The integrator (`jaxbearing.solve`) writes these; `jaxbearing.metrics` and `jaxbearing.life`
 read them without importing the solver.
 """
@@ -23,6 +24,7 @@ PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1
 RING_POINTS_PER_BALL = 8  # points of each ring per ball spacing that `FatigueStats` follows
 # columns of FatigueStats.integrals
 (FAT_TIME, FAT_REVOLUTIONS, FAT_FORCE_CUBED, FAT_BALL_CUBED, FAT_BALL_TEN_THIRDS) = range(5)
+
 
 class RESULTS(diffrax.RESULTS):
     """diffrax's result codes plus the ones of the segmented solve."""
@@ -117,6 +119,7 @@ class FatigueStats(eqx.Module):
     inner: jax.Array
     outer: jax.Array
     valid: jax.Array
+
 
 class Solution(eqx.Module):
     """Result of `simulate`: states and force outputs at the requested times.

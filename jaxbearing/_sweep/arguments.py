@@ -137,17 +137,20 @@ def needs_samples(fn) -> bool:
     of `metrics.STANDARD` or `metrics.SMOOTH`, or carries the attribute ``sample_free = True``
     (`life.metric`'s does; mark your own metrics of ``sol.segments`` or ``sol.fatigue``); every
     other metric does."""
-    inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
-    inner = getattr(inner, "func", inner)  # functools.partial
+    inner = _unwrapped(fn)
     return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
 
 
 def needs_fatigue(fn) -> bool:
     """Whether metric ``fn`` reads ``sol.fatigue`` (`life.metric` does: attribute
     ``reads_fatigue = True``); members record it only then, unless ``fatigue`` is passed."""
+    return getattr(_unwrapped(fn), READS_FATIGUE, False) is True
+
+
+def _unwrapped(fn):
+    """The function inside a `metrics.WithModel` and a `functools.partial`."""
     inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
-    inner = getattr(inner, "func", inner)  # functools.partial
-    return getattr(inner, READS_FATIGUE, False) is True
+    return getattr(inner, "func", inner)
 
 
 def output_times(items, t0, t1, ts) -> np.ndarray:

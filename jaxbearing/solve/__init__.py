@@ -1,8 +1,9 @@
 """Integration of a `Mechanism` with diffrax: the only place that calls `diffeqsolve`.
 
 `simulate` (in `_simulate`) runs the segment loop (`_segment`) between the stops (`_stops`) with
-the recording solver (`_recording`), which records the `SegmentStats` the metrics read and the `FatigueStats` the life reads; the
-progress bar lives in `_progress`. The result types are in `jaxbearing.solution`.
+the recording solver (`_recording`), which records the `SegmentStats` the metrics read and the
+`FatigueStats` the life reads; the progress bar lives in `_progress`. The result types are in
+`jaxbearing.solution`.
 """
 
 from ..solution import RESULTS, Contacts, FatigueStats, SegmentStats, SimulationError, Solution

@@ -50,9 +50,8 @@ def _peaks(model, q, f):
     """The peak candidates (3 + n,) of `SegmentStats` at one state with forces ``f``."""
     zero = jnp.zeros((), q.dtype)
     contact = f.get("contact_force", zero)
-    return jnp.concatenate(
-        [jnp.stack([jnp.max(f.get("ball_loads", zero[None])), _magnitude(f), contact]), jnp.abs(q - model.q0)]
-    )
+    largest = jnp.max(f.get("ball_loads", zero[None]))
+    return jnp.concatenate([jnp.stack([largest, _magnitude(f), contact]), jnp.abs(q - model.q0)])
 
 
 def _squared(f):
@@ -132,15 +131,16 @@ def _gauss_sum(values):
 
 
 class _Recording(diffrax.AbstractAdaptiveSolver):
-    """The user's solver, plus the `SegmentStats` of the steps it takes.
+    """The user's solver, plus the `SegmentStats` and `FatigueStats` integrals of the steps it
+    takes.
 
     State: (inner state, (peaks, integrals, fatigue integrals) over all accepted steps but the
-    latest, the latest
-    accepted step (t0, t1, dense_info)). Each step adds its predecessor's stats: diffrax keeps
-    the old state when it rejects a step, so only accepted steps count, and the latest one is
-    left open, so that `_close` counts it up to the end of the segment, which lies before its t1
-    when the segment ends at an event. The state starts with a placeholder step of length zero
-    at y0 (values y0, slopes zero), which counts the segment's initial state.
+    latest, the latest accepted step (t0, t1, dense_info)). Each step adds its predecessor's
+    stats: diffrax keeps the old state when it rejects a step, so only accepted steps count,
+    and the latest one is left open, so that `_close` counts it up to the end of the segment,
+    which lies before its t1 when the segment ends at an event. The state starts with a
+    placeholder step of length zero at y0 (values y0, slopes zero), which counts the segment's
+    initial state.
     """
 
     solver: diffrax.AbstractSolver

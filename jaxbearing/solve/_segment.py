@@ -271,7 +271,8 @@ def _states_at(dense: diffrax.DenseInterpolation, times, y0):
     after each (as diffrax saves at given times); ``y0`` where the solve took no step."""
 
     def one(t):
-        i = jnp.clip(jnp.searchsorted(dense.ts, t, side="left") - 1, 0, jnp.maximum(dense.ts_size - 2, 0))
+        last = jnp.maximum(dense.ts_size - 2, 0)
+        i = jnp.clip(jnp.searchsorted(dense.ts, t, side="left") - 1, 0, last)
         info = jax.tree_util.tree_map(lambda x: x[i], dense.infos)
         return dense.interpolation_cls(t0=dense.ts[i], t1=dense.ts[i + 1], **info).evaluate(t)
 
@@ -286,9 +287,8 @@ def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
     ts, block = s.ts, s.block
     n_outputs, rows = ts.shape[0], jnp.arange(block)
     first = jnp.searchsorted(ts, c.t, side="left")
-    end = jnp.where(
-        through_end, jnp.searchsorted(ts, t_end, side="right"), jnp.searchsorted(ts, t_end, side="left")
-    )
+    end = jnp.searchsorted(ts, t_end, side="left")
+    end = jnp.where(through_end, jnp.searchsorted(ts, t_end, side="right"), end)
     end = jnp.where(c.done, first, end)
     approach = jnp.broadcast_to(c.approach, (block,) + c.approach.shape)
     engaged = jnp.broadcast_to(c.engaged, (block,) + c.engaged.shape)

@@ -340,9 +340,8 @@ def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), t_final)
     t_end = jnp.minimum(stops, t_final)
     m = (integrals.shape[1] - 5) // 2
-    return FatigueStats(
-        t_start, t_end, integrals[:, :5], integrals[:, 5 : 5 + m], integrals[:, 5 + m :], t_end > t_start
-    )
+    inner, outer = integrals[:, 5 : 5 + m], integrals[:, 5 + m :]
+    return FatigueStats(t_start, t_end, integrals[:, :5], inner, outer, t_end > t_start)
 
 
 def _outputs(
