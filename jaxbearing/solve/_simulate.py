@@ -134,8 +134,8 @@ def simulate(
         output_block: output times a segment evaluates from its interpolants and writes
             together; default `default_output_block`. Any value gives the same outputs.
         fatigue: record `Solution.fatigue`, the integrals the bearing's life reads
-            (`jaxbearing.life`; about an eighth of a run of the paper's case, README); False:
-            ``sol.fatigue`` is None and the life functions refuse the solution.
+            (`jaxbearing.life`; README gives their cost); False: ``sol.fatigue`` is None and
+            the life functions refuse the solution.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
