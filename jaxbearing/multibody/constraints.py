@@ -1,10 +1,14 @@
 """Kinematic constraints Phi(q, t) = 0 (paper Sect. 2.4, Eqs. 35–36).
 
-Each joint gives its position equations Phi, and in closed form their Jacobian Phi_q (full
-width, one row per equation), their explicit time derivative Phi_t and the acceleration
-right-hand side gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt. (Closed forms are
-several times faster inside the solver loop than forward-mode derivatives of Phi; the tests
-check them against those derivatives.)
+Each joint gives its position equations Phi, and in closed form their Jacobian Phi_q, their
+explicit time derivative Phi_t and the acceleration right-hand side
+gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt. (Closed forms are several times faster
+inside the solver loop than forward-mode derivatives of Phi; the tests check them against those
+derivatives.)
+
+Phi_q is given by its rows' nonzero entries (`JacobianRows`): which columns a row touches is
+fixed by the joint's type and bodies, so `Mechanism` assembles and solves Eq. 36 on that static
+sparsity, entry by entry, and never multiplies the zeros.
 """
 
 from __future__ import annotations
@@ -19,16 +23,33 @@ import jax.numpy as jnp
 from .. import _checks
 from .bodies import GROUND, point_position, pose, rotate
 
+JacobianRows = tuple[dict, ...]
+"""Phi_q of a joint, one dict per equation: column of q -> the entry there (a scalar array or
+a Python float); columns not in a dict are zero whatever q and t."""
 
-def _point_rows(q, body: int, point, sign: float) -> jax.Array:
-    """Rows d(sign * (r_b + A s))/dq, shape (2, n): [I, B s] at the body's columns, B = dA/dtheta."""
-    rows = jnp.zeros((2, q.shape[0]), q.dtype)
+
+def _point_rows(q, body: int, point, sign: float) -> JacobianRows:
+    """Entries of d(sign * (r_b + A s))/dq: [I, B s] at the body's columns, B = dA/dtheta
+    (the sign taken by negation, not by a product, which XLA would reassociate)."""
     if body == GROUND:
-        return rows
+        return {}, {}
     _, theta = pose(q, body)
     arm = rotate(theta, point)
-    block = jnp.array([[1.0, 0.0, -arm[1]], [0.0, 1.0, arm[0]]])
-    return rows.at[:, 3 * body : 3 * body + 3].set(sign * block)
+    x, y, angle = 3 * body, 3 * body + 1, 3 * body + 2
+    if sign > 0:
+        return {x: 1.0, angle: -arm[1]}, {y: 1.0, angle: arm[0]}
+    return {x: -1.0, angle: arm[1]}, {y: -1.0, angle: -arm[0]}
+
+
+def _sum_rows(a: JacobianRows, b: JacobianRows) -> JacobianRows:
+    """Entry-wise sum of two joints' rows with the same number of equations."""
+    out = []
+    for row_a, row_b in zip(a, b, strict=True):
+        row = dict(row_a)
+        for column, value in row_b.items():
+            row[column] = row[column] + value if column in row else value
+        out.append(row)
+    return tuple(out)
 
 
 def _point_gamma(q, qd, body: int, point) -> jax.Array:
@@ -39,8 +60,12 @@ def _point_gamma(q, qd, body: int, point) -> jax.Array:
     return rotate(theta, point) * qd[3 * body + 2] ** 2
 
 
-def _angle_row(q, body: int) -> jax.Array:
-    return jnp.zeros((1, q.shape[0]), q.dtype).at[0, 3 * body + 2].set(1.0)
+def dense(rows: JacobianRows, n_coordinates: int, dtype) -> jax.Array:
+    """The rows as a dense (len(rows), n_coordinates) matrix."""
+    zero = jnp.zeros((), dtype)
+    return jnp.stack(
+        [jnp.stack([jnp.asarray(row.get(c, zero), dtype) for c in range(n_coordinates)]) for row in rows]
+    )
 
 
 class AbstractJoint(eqx.Module):
@@ -54,8 +79,12 @@ class AbstractJoint(eqx.Module):
         """Phi, (n_equations,) [m or rad]."""
 
     @abc.abstractmethod
+    def jacobian_rows(self, q, t) -> JacobianRows:
+        """Phi_q by its nonzero entries, one dict per equation (`JacobianRows`)."""
+
     def jacobian(self, q, t) -> jax.Array:
         """Phi_q, (n_equations, n_coordinates)."""
+        return dense(self.jacobian_rows(q, t), q.shape[0], q.dtype)
 
     @abc.abstractmethod
     def time_derivative(self, q, t) -> jax.Array:
@@ -92,9 +121,10 @@ class Revolute(AbstractJoint):
             q, self.body_j, self.point_j
         )
 
-    def jacobian(self, q, t):
-        return _point_rows(q, self.body_i, self.point_i, 1.0) + _point_rows(
-            q, self.body_j, self.point_j, -1.0
+    def jacobian_rows(self, q, t):
+        return _sum_rows(
+            _point_rows(q, self.body_i, self.point_i, 1.0),
+            _point_rows(q, self.body_j, self.point_j, -1.0),
         )
 
     def time_derivative(self, q, t):
@@ -136,11 +166,9 @@ class Translational(AbstractJoint):
         r, theta = pose(q, self.body)
         return jnp.stack([jnp.sum(self._normal() * (r - self.origin)), theta - self.body_angle])
 
-    def jacobian(self, q, t):
-        row = jnp.zeros((1, q.shape[0]), q.dtype).at[0, 3 * self.body : 3 * self.body + 2].set(
-            self._normal()
-        )
-        return jnp.concatenate([row, _angle_row(q, self.body)])
+    def jacobian_rows(self, q, t):
+        normal, x = self._normal(), 3 * self.body
+        return {x: normal[0], x + 1: normal[1]}, {x + 2: 1.0}
 
     def time_derivative(self, q, t):
         return jnp.zeros(2, q.dtype)
@@ -170,8 +198,8 @@ class Driver(AbstractJoint):
         _, theta = pose(q, self.body)
         return jnp.reshape(theta - self.angle - self.speed * t, (1,))
 
-    def jacobian(self, q, t):
-        return _angle_row(q, self.body)
+    def jacobian_rows(self, q, t):
+        return ({3 * self.body + 2: 1.0},)
 
     def time_derivative(self, q, t):
         return jnp.reshape(-self.speed, (1,)).astype(q.dtype)

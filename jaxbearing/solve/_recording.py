@@ -7,6 +7,7 @@ Gauss–Legendre quadrature over the step (`jaxbearing.solution`).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import diffrax
@@ -23,12 +24,12 @@ GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
 GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 
 
-@jax.jit
-def _accelerations(model, t, q, qd, approach_speeds, engaged):
+@functools.partial(jax.jit, static_argnames="sparse")
+def _accelerations(model, t, q, qd, approach_speeds, engaged, sparse=False):
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field several times. XLA inlines the call, so the compiled
     program is unchanged."""
-    return model.accelerations(t, q, qd, approach_speeds, engaged)
+    return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=sparse)
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):

@@ -52,7 +52,7 @@ from ._segment import _Setup, initial_carry, make_event, resumable, segment
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
-OUTPUT_BATCH = 256  # output times evaluated together (forces, accelerations) after the solve
+OUTPUT_BATCH = 2048  # output times evaluated together (forces, accelerations) after the solve
 SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
@@ -355,7 +355,7 @@ def _outputs(
     safe_qd = jnp.where(valid[:, None], qd, model.qd0)
 
     def at(t, q_, qd_, a_, e_):
-        qdd = _accelerations(model, t, q_, qd_, a_, e_)
+        qdd = _accelerations(model, t, q_, qd_, a_, e_, sparse=True)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
         return {"qdd": qdd, "drift": drift, **_forces(model, t, q_, qd_, a_, e_)}
 
