@@ -42,7 +42,7 @@ How it runs
   the samples (any other function; `arguments.needs_samples` is the rule). Members record the
   life's integrals (`Solution.fatigue`) only when a metric reads them (`life.metric`;
   `arguments.needs_fatigue`), unless ``fatigue`` is passed.
-- Chunk size. On CPU devices the default is 16 points per device. A batch runs in lock-step to
+- Chunk size. On CPU devices the default is 32 points per device. A batch runs in lock-step to
   its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
   gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and
   holds more members in memory. The measured rates and memory per member are in the README

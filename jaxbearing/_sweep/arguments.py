@@ -18,7 +18,7 @@ from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate
 
-DEFAULT_CHUNK_SIZE = {"cpu": 16}  # points per device per chunk, by platform (README: measured)
+DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (README: measured)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
 SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: 4, 8, 16 measured)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
@@ -219,7 +219,7 @@ def _violation_flags(model, names, points):
 
 
 def default_chunk_size(platform: str | None = None) -> int:
-    """Points per device per chunk when ``chunk_size`` is not given: 16 on CPU devices, 1024 on
+    """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices, 1024 on
     accelerators (measured: README, 'Performance and solvers' and 'Where it runs')."""
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
