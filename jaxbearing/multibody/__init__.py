@@ -1,7 +1,7 @@
 """Planar multibody core: bodies, joints, force elements and the equations of motion (Eq. 36)."""
 
 from .bodies import GROUND, Body, point_force, point_position, point_velocity, rotate
-from .constraints import AbstractJoint, Driver, Revolute, Translational
+from .constraints import AbstractJoint, Driver, JacobianRows, Revolute, Translational
 from .forces import AbstractForceElement, BearingJoint, CircleContact, ForceInputs, Gravity, SpringDamper
 from .mechanism import Mechanism
 
@@ -15,6 +15,7 @@ __all__ = [
     "Driver",
     "ForceInputs",
     "Gravity",
+    "JacobianRows",
     "Mechanism",
     "Revolute",
     "SpringDamper",

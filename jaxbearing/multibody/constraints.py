@@ -7,8 +7,8 @@ inside the solver loop than forward-mode derivatives of Phi; the tests check the
 derivatives.)
 
 Phi_q is given by its rows' nonzero entries (`JacobianRows`): which columns a row touches is
-fixed by the joint's type and bodies, so `Mechanism` assembles and solves Eq. 36 on that static
-sparsity, entry by entry, and never multiplies the zeros.
+fixed by the joint's type and bodies, so `Mechanism` can eliminate Eq. 36 entry by entry on that
+static sparsity (`Mechanism.accelerations(sparse=True)`); `jacobian` is the dense matrix.
 """
 
 from __future__ import annotations
@@ -29,8 +29,7 @@ a Python float); columns not in a dict are zero whatever q and t."""
 
 
 def _point_rows(q, body: int, point, sign: float) -> JacobianRows:
-    """Entries of d(sign * (r_b + A s))/dq: [I, B s] at the body's columns, B = dA/dtheta
-    (the sign taken by negation, not by a product, which XLA would reassociate)."""
+    """Entries of d(sign * (r_b + A s))/dq: [I, B s] at the body's columns, B = dA/dtheta."""
     if body == GROUND:
         return {}, {}
     _, theta = pose(q, body)
@@ -60,7 +59,7 @@ def _point_gamma(q, qd, body: int, point) -> jax.Array:
     return rotate(theta, point) * qd[3 * body + 2] ** 2
 
 
-def dense(rows: JacobianRows, n_coordinates: int, dtype) -> jax.Array:
+def _dense(rows: JacobianRows, n_coordinates: int, dtype) -> jax.Array:
     """The rows as a dense (len(rows), n_coordinates) matrix."""
     zero = jnp.zeros((), dtype)
     return jnp.stack(
@@ -84,7 +83,7 @@ class AbstractJoint(eqx.Module):
 
     def jacobian(self, q, t) -> jax.Array:
         """Phi_q, (n_equations, n_coordinates)."""
-        return dense(self.jacobian_rows(q, t), q.shape[0], q.dtype)
+        return _dense(self.jacobian_rows(q, t), q.shape[0], q.dtype)
 
     @abc.abstractmethod
     def time_derivative(self, q, t) -> jax.Array:

@@ -28,7 +28,7 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 def _accelerations(model, t, q, qd, approach_speeds, engaged, sparse=False):
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field several times. XLA inlines the call, so the compiled
-    program is unchanged."""
+    program is unchanged. ``sparse``: the elimination the outputs use (`_simulate._outputs`)."""
     return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=sparse)
 
 
