@@ -1,9 +1,10 @@
 """Memory of a sweep member: XLA's compiled memory analysis of the sweep's chunk kernel
-(`jaxbearing._sweep.kernel.run_chunk`) for the paper's case with impact over 0–0.2 s, at 4 and 16
-points per chunk on one device, with the sweep's default output times for the standard metrics
-([t0, t1]) and with 2001 output times (the former default).
+(`jaxbearing._sweep.kernel.run_chunk`) for the paper's case with impact over 0–0.2 s, at 4 and 32
+points per chunk on one device: the standard metrics, which read no samples and solve [t0, t1]
+only, and a metric that reads 2001 output samples (the largest ball load sampled; XLA drops the
+samples of a member whose metrics do not read them).
 
-    python benchmarks/sweep_memory.py [--chunks 4 16] [--samples 2 2001]
+    python benchmarks/sweep_memory.py [--chunks 4 32] [--samples 2 2001]
 
 Prints, per setting, the temporary and output buffers [MiB] and the temporary memory per member
 (the difference between the two chunk sizes over the difference in members). Compiles each
@@ -31,7 +32,8 @@ def memory(chunk: int, samples: int, t1: float = 0.2):
     """XLA's memory analysis of the compiled chunk kernel (one device)."""
     model = jb.cases.xu2014(impact=True)
     params = {"bearing.clearance": np.full(chunk, 40e-6)}
-    request = arguments.request(model, params, None, True, t1, np.linspace(0.0, t1, samples), {})
+    metrics = None if samples <= 2 else {"sampled_peak_ball_load": lambda sol: jax.numpy.max(sol.ball_loads)}
+    request = arguments.request(model, params, metrics, True, t1, np.linspace(0.0, t1, samples), {})
     mesh = jax.make_mesh((1,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     runner = kernel.ChunkRunner(model, request, mesh, chunk)
     rows = jax.device_put(request.points, runner.split)
@@ -43,7 +45,7 @@ def memory(chunk: int, samples: int, t1: float = 0.2):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--chunks", type=int, nargs="+", default=[4, 16])
+    parser.add_argument("--chunks", type=int, nargs="+", default=[4, 32])
     parser.add_argument("--samples", type=int, nargs="+", default=[2, 2001])
     args = parser.parse_args()
     temp = {}
