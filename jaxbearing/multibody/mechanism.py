@@ -14,8 +14,8 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
   a member equals the same point run alone to the last bit (tests/test_sweep.py).
 - sparse (`solve_spd_entries`, ``accelerations(..., sparse=True)``): S, its LDL^T factors and
   Phi_q^T lambda written out entry by entry on the sparsity of Phi_q, which the joints' types and
-  bodies fix. For the paper's slider–crank it is a few hundred scalar operations, about twice as
-  cheap vmapped over a batch; `simulate` evaluates the outputs with it. XLA rounds it
+  bodies fix. For the paper's slider–crank it is a few hundred scalar operations, cheaper
+  vmapped over a batch (README, *Where the time goes*); `simulate` evaluates the outputs with it. XLA rounds it
   differently in single and batched programs (it reassociates the scalar chains of one and not
   the other), and in the solver that difference would grow into another step sequence, so the
   solver keeps the dense one; the outputs do not feed back into the solution.
@@ -165,7 +165,11 @@ class Mechanism(eqx.Module):
     def constraint_velocity(self, q, qd, t, jacobian=None) -> jax.Array:
         """Phi_dot = Phi_q q_dot + Phi_t (``jacobian``: Phi_q if already at hand)."""
         jac = self.constraint_jacobian(q, t) if jacobian is None else jacobian
-        return jac @ qd + jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
+        return jac @ qd + self._time_derivatives(q, t)
+
+    def _time_derivatives(self, q, t) -> jax.Array:
+        """Phi_t, (n_constraints,)."""
+        return jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
 
     def constraint_rows(self, q, t) -> JacobianRows:
         """Phi_q by its nonzero entries, one dict per constraint equation (`JacobianRows`)."""
@@ -236,22 +240,24 @@ class Mechanism(eqx.Module):
         if not self.joints:
             return m_inv * forces
         if sparse:
-            return self._sparse_accelerations(t, q, qd, forces)
+            return self._sparse_accelerations(t, q, qd, forces, m_inv)
         jac, rhs = self.constraint_rhs(q, qd, t)
         jm = jac * m_inv[None, :]
         lam = solve_spd(jm @ jac.T, jm @ forces - rhs)
         return m_inv * (forces - jac.T @ lam)
 
-    def _sparse_accelerations(self, t, q, qd, forces) -> jax.Array:
-        """`accelerations` on the sparsity of Phi_q, for the generalised forces ``forces``."""
-        m_inv = [x for b in self.bodies for x in (1.0 / b.mass, 1.0 / b.mass, 1.0 / b.inertia)]
-        f = [forces[c] for c in range(self.n_coordinates)]
+    def _sparse_accelerations(self, t, q, qd, forces, inverse_mass) -> jax.Array:
+        """`accelerations` on the sparsity of Phi_q, for the generalised forces ``forces`` and
+        the diagonal of M^-1 ``inverse_mass``."""
+        n = self.n_coordinates
+        m_inv = [inverse_mass[c] for c in range(n)]
+        f = [forces[c] for c in range(n)]
         rows = self.constraint_rows(q, t)
-        phi_t = jnp.concatenate([joint.time_derivative(q, t) for joint in self.joints])
-        phi_dot = jnp.stack([_row_dot(row, qd) for row in rows]) + phi_t
+        phi_dot = jnp.stack([_row_dot(row, qd) for row in rows]) + self._time_derivatives(q, t)
         rhs = self._stabilised_rhs(q, qd, t, phi_dot)
         schur = [[_weighted_dot(rows[i], rows[j], m_inv) for j in range(i + 1)] for i in range(len(rows))]
-        b = [_weighted_dot(row, f, m_inv) - rhs[i] for i, row in enumerate(rows)]
+        accelerations_free = [m * x for m, x in zip(m_inv, f)]  # M^-1 Q_A
+        b = [_row_dot(row, accelerations_free) - rhs[i] for i, row in enumerate(rows)]
         lam = solve_spd_entries(schur, b)
         for row, lam_i in zip(rows, lam):
             for c, value in row.items():
@@ -324,11 +330,9 @@ def _row_dot(row: dict, x) -> jax.Array:
     return sum(terms[1:], terms[0])
 
 
-def _weighted_dot(row_i: dict, row_j, weights: list):
-    """sum_c row_i[c] weights[c] row_j[c] over the columns of row_i that row_j has (``row_j``: a
-    row's dict or a full list); None if there are none."""
-    has = (lambda c: c in row_j) if isinstance(row_j, dict) else (lambda c: True)
-    terms = [weights[c] * (row_i[c] * row_j[c]) for c in sorted(row_i) if has(c)]
+def _weighted_dot(row_i: dict, row_j: dict, weights: list):
+    """sum_c row_i[c] weights[c] row_j[c] over the columns both rows touch; None if none."""
+    terms = [weights[c] * (row_i[c] * row_j[c]) for c in sorted(row_i.keys() & row_j.keys())]
     return sum(terms[1:], terms[0]) if terms else None
 
 
