@@ -124,7 +124,8 @@ class FatigueStats(eqx.Module):
 class Solution(eqx.Module):
     """Result of `simulate`: states and force outputs at the requested times.
 
-    Fields (T = number of output times):
+    Fields (T = number of output times; the per-time fields are NaN at the times a run that
+    failed did not reach):
         ts: (T,) [s].
         q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
             in model order, [x, y, theta] each.

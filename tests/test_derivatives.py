@@ -96,6 +96,29 @@ def check_user_transforms_and_vmap(c):
         assert float(batched[1]) == pytest.approx(converged_difference(c.value, second, name), rel=AGREE)
 
 
+@pytest.mark.slow  # 45 s: two compiles of the solve (reverse and forward mode)
+def test_output_samples_differentiate_alike_in_both_modes():
+    """Reverse mode through the output samples, not a metric: the segment loop writes the
+    samples in blocks of 64 that span several segments here (about 5 samples a segment), each
+    block once (eqxi's buffers: a block written twice gets its cotangent twice; measured 2e4x
+    off). Against forward mode, which runs another loop without such buffers (its own
+    agreement with central differences: test_sensitivities_without_impact). The modes agree to 5e-4,
+    not to rounding (as for the metrics; not investigated), hence 1e-2."""
+    model, name = jb.cases.xu2014(impact=False), "bearing.clearance"
+    t1, ts = 0.01, jnp.linspace(0.0, 0.01, 301)
+    weights = jnp.asarray(np.random.default_rng(0).normal(size=ts.shape[0]))
+
+    def f(m, adjoint=None):
+        sol = jb.simulate(m, t1, ts, adjoint=adjoint, **TIGHT)
+        return jnp.sum(weights * sol.q[:, 3]) + 1e-6 * jnp.sum(weights * sol.ball_loads[:, 0])
+
+    at = lambda x, adjoint=None: f(jb.paths.replace(model, {name: x}), adjoint)
+    x0 = float(jb.paths.get(model, name))
+    reverse = float(jb.jit(jax.grad(at))(x0))
+    forward = float(jax.jacfwd(lambda x: at(x, diffrax.ForwardMode()))(x0))
+    assert reverse == pytest.approx(forward, rel=1e-2)
+
+
 @pytest.mark.parametrize(
     "ball_force", ["paper", pytest.param("smooth", marks=pytest.mark.slow)]  # suite time: 1 min each
 )

@@ -30,6 +30,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._forms import cos_sin, power
+
 BALL_RELEASE = 1e-12  # [m] an engaged ball of the paper force is released at delta_r = -1 pm
 
 
@@ -65,7 +67,7 @@ def ball_directions(cage_angle, n_balls: int) -> tuple[jax.Array, jax.Array]:
     instead of 2 N_b (they dominate the cost of a batched force evaluation).
     """
     pitch = _pitch_angles(n_balls)
-    c, s = jnp.cos(cage_angle), jnp.sin(cage_angle)
+    c, s = cos_sin(cage_angle)
     return np.cos(pitch) * c - np.sin(pitch) * s, np.sin(pitch) * c + np.cos(pitch) * s
 
 
@@ -118,20 +120,13 @@ def ring_point_loads(
     normal = jnp.stack([-axis[1], axis[0]])
     local = [jnp.sum(x * a) for x in (eccentricity, eccentricity_rate) for a in (axis, normal)]
     pitch = _pitch_angles(n_points)
-    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None, _cheap_power)
+    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None, cheap=True)
 
 
-def _cheap_power(depth, exponent: float):
-    """depth^n for depth >= 0 with finite gradients; n = 3/2 as depth sqrt(depth), cheaper than
-    the general power (which `ball_loads` keeps: the motion's rounding stays as it was)."""
-    if exponent != 1.5:
-        return depth**exponent
-    safe = jnp.where(depth > 0.0, depth, 1.0)
-    return jnp.where(depth > 0.0, safe * jnp.sqrt(safe), 0.0)
-
-
-def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, power=jnp.power):
-    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]; ``power(depth, n)``."""
+def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, cheap=False):
+    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]; ``cheap``: depth^n as
+    `_forms.power` writes it cheaply (the motion keeps the general power, so that its rounding
+    stays as it was)."""
     delta = eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
     positive = delta > 0.0
@@ -140,7 +135,7 @@ def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, power=jn
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)
-    force = bearing.stiffness * power(depth, bearing.exponent) + damping
+    force = bearing.stiffness * power(depth, bearing.exponent, cheap) + damping
     return jnp.where(touching, jnp.maximum(force, 0.0), 0.0)
 
 

@@ -18,11 +18,13 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from .._forms import power
+
 
 def hertz(penetration, stiffness) -> jax.Array:
     """Elastic Hertz force K delta^1.5 [N] for delta > 0, else 0."""
     depth = jnp.where(penetration > 0.0, penetration, 0.0)
-    return stiffness * depth**1.5
+    return stiffness * power(depth, 1.5)
 
 
 def lankarani_nikravesh(

@@ -21,7 +21,7 @@ from .. import _checks
 from ..laws import bearing as bearing_law
 from ..laws import impact as impact_law
 from ..params import BallBearing, Impact
-from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotate
+from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotate_back
 
 
 class ForceInputs(NamedTuple):
@@ -266,8 +266,8 @@ class CircleContact(AbstractForceElement):
         _, theta_j = pose(q, self.body_j)
         _, theta_k = pose(q, self.body_k)
         # surface points in body frames: c + A^T (R n)
-        g_j = self.centre_j + rotate(-theta_j, self.radius_j * n)
-        g_k = self.centre_k - rotate(-theta_k, self.radius_k * n)
+        g_j = self.centre_j + rotate_back(theta_j, self.radius_j * n)
+        g_k = self.centre_k - rotate_back(theta_k, self.radius_k * n)
         return point_force(q, self.body_k, g_k, on_k) + point_force(q, self.body_j, g_j, -on_k)
 
 

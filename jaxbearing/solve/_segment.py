@@ -82,10 +82,13 @@ class _Carry(NamedTuple):
     approach: jax.Array  # (n_contacts,) approach speed of each contact's current contact [m/s]
     in_contact: jax.Array  # (n_contacts,) bool
     engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
-    out_y: jax.Array  # (T + block, 2n) states at the output times, NaN where not yet reached
-    out_approach: jax.Array  # (T + block, n_contacts) approach speeds in force at the output times
-    out_engaged: jax.Array  # (T + block, n_switched_balls) engaged balls at the output times
-    # (``block`` rows of padding at the end take a block's rows past its segment's end)
+    # at the output times: (states [q, qd] (2n,), approach speeds in force (n_contacts,),
+    # engaged balls (n_switched_balls,)), in blocks of ``block`` times, (n_blocks, block, ...):
+    # output r is row [r // block, r % block]
+    outputs: tuple
+    pending: tuple  # the rows of the block that holds time ``written`` (block, ...): written to
+    # ``outputs`` when that block is full or the run ends
+    written: jax.Array  # output times evaluated so far: the first ``written`` of ``ts``
     fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
     result: RESULTS
@@ -102,7 +105,7 @@ class _Setup(NamedTuple):
     """What every segment of one solve shares (fixed while the segments run)."""
 
     model: object  # the Mechanism
-    ts: jax.Array  # (T,) output times [s]
+    ts: jax.Array  # (n_blocks * block,) output times [s], padded with +inf (`padded_times`)
     t0: jax.Array  # [s]
     t1: jax.Array  # [s]
     stops: jax.Array  # (n_stops,) segment ends [s], increasing (`_stops`)
@@ -146,11 +149,17 @@ def make_event(model) -> diffrax.Event | None:
     return diffrax.Event(first_event, root_finder=root_finder, direction=True)
 
 
-def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
+def padded_times(ts, block: int) -> jax.Array:
+    """The output times ``ts`` padded with +inf to a whole number of blocks of ``block``."""
+    return jnp.concatenate([ts, jnp.full(-ts.shape[0] % block, jnp.inf, ts.dtype)])
+
+
+def initial_carry(s: _Setup, y0, initial_step) -> _Carry:
     """The carry before the first segment: at t0, nothing in contact, the balls with
     delta_r > 0 engaged, no outputs written, no pause."""
     model, t0, t1, block = s.model, s.t0, s.t1, s.block
     n, n_contacts, n_balls = model.n_coordinates, len(model.contacts), model.n_switched_balls
+    blocks = s.ts.shape[0] // block
     carry = _Carry(
         t=t0,
         cell=jnp.asarray(0),
@@ -159,9 +168,17 @@ def initial_carry(s: _Setup, y0, n_outputs: int, initial_step) -> _Carry:
         approach=jnp.zeros(n_contacts),
         in_contact=jnp.zeros(n_contacts, bool),
         engaged=model.ball_deflections(t0, model.q0) > 0.0,
-        out_y=jnp.full((n_outputs + block, 2 * n), jnp.nan),
-        out_approach=jnp.zeros((n_outputs + block, n_contacts)),
-        out_engaged=jnp.zeros((n_outputs + block, n_balls), bool),
+        outputs=(
+            jnp.full((blocks, block, 2 * n), jnp.nan),
+            jnp.zeros((blocks, block, n_contacts)),
+            jnp.zeros((blocks, block, n_balls), bool),
+        ),
+        pending=(
+            jnp.full((block, 2 * n), jnp.nan),
+            jnp.zeros((block, n_contacts)),
+            jnp.zeros((block, n_balls), bool),
+        ),
+        written=jnp.asarray(0),
         fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model, s.recording.fatigue))),
         done=jnp.asarray(False),
         result=RESULTS.successful,
@@ -273,45 +290,68 @@ def _states_at(dense: diffrax.DenseInterpolation, times, y0):
     def one(t):
         last = jnp.maximum(dense.ts_size - 2, 0)
         i = jnp.clip(jnp.searchsorted(dense.ts, t, side="left") - 1, 0, last)
+        t0, t1 = dense.ts[i], dense.ts[i + 1]
         info = jax.tree_util.tree_map(lambda x: x[i], dense.infos)
-        return dense.interpolation_cls(t0=dense.ts[i], t1=dense.ts[i + 1], **info).evaluate(t)
+        return dense.interpolation_cls(t0=t0, t1=t1, **info).evaluate(t)
 
     return jnp.where(dense.ts_size > 1, jax.vmap(one)(times), y0)
 
 
 def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
-    """The output buffers with this segment's output times written: those in [c.t, t_end), and
-    t_end as well where the run ends (``through_end``), so that each time is written exactly
-    once, by the last segment that starts at or before it. A loop over blocks of ``s.block``
-    times, each evaluated from the segment's dense output and written at once."""
+    """(outputs, pending, written) with this segment's output times evaluated from its dense
+    output: those in [c.t, t_end), and t_end as well where the run ends (``through_end``), so
+    that each time is evaluated exactly once, by the last segment that starts at or before it
+    (the ``c.written`` times before c.t are done).
+
+    A loop over the blocks that hold these times: a block's times are evaluated at once, and a
+    block that is then full is written to ``outputs`` whole, in one update in place; the last
+    one waits in ``pending`` for the next segment's rows, or is written when the run ends. So
+    each block is written once and never read, as `eqxi.while_loop`'s buffers require for
+    reverse mode."""
     ts, block = s.ts, s.block
-    n_outputs, rows = ts.shape[0], jnp.arange(block)
-    first = jnp.searchsorted(ts, c.t, side="left")
-    end = jnp.searchsorted(ts, t_end, side="left")
-    end = jnp.where(through_end, jnp.searchsorted(ts, t_end, side="right"), end)
-    end = jnp.where(c.done, first, end)
-    approach = jnp.broadcast_to(c.approach, (block,) + c.approach.shape)
-    engaged = jnp.broadcast_to(c.engaged, (block,) + c.engaged.shape)
+    rows = jnp.arange(block)
+    start = c.written // block
+    mine = lambda t: ~c.done & jnp.where(through_end, t <= t_end, t < t_end)
+    switches = tuple(jnp.broadcast_to(x, (block,) + x.shape) for x in (c.approach, c.engaged))
+
+    def more(carry):
+        first = c.written + carry[1]
+        return (first < ts.shape[0]) & mine(ts[jnp.minimum(first, ts.shape[0] - 1)])
 
     def body(carry):
-        i, out_y, out_approach, out_engaged = carry
-        index = first + i * block + rows
-        times = jnp.clip(ts[jnp.minimum(index, n_outputs - 1)], c.t, t_end)
-        ys = _states_at(dense, times, c.y)
-        # rows past the segment's end go to the padding: every output row is written once
-        at = jnp.where(index < end, index, n_outputs + rows)
-        put = lambda buffer, x: buffer.at[at].set(x, indices_are_sorted=True, unique_indices=True)
-        return i + 1, put(out_y, ys), put(out_approach, approach), put(out_engaged, engaged)
+        i, count, pending, outputs = carry
+        j = start + i
+        times = jax.lax.dynamic_slice(ts, (j * block,), (block,))
+        ours = (j * block + rows >= c.written) & mine(times)
+        values = (_states_at(dense, jnp.clip(times, c.t, t_end), c.y),) + switches
+        # rows before ours (in the first block) were evaluated by earlier segments
+        pending = tuple(_where_rows(ours, x, old) for x, old in zip(values, pending))
+        count = count + jnp.sum(ours)
+        full = (j + 1) * block <= c.written + count
+        outputs = tuple(b.at[j].set(x, pred=full) for b, x in zip(outputs, pending))
+        return i + 1, count, pending, outputs
 
-    _, *out = eqxi.while_loop(
-        lambda carry: first + carry[0] * block < end,
+    _, count, pending, outputs = eqxi.while_loop(
+        more,
         body,
-        (jnp.asarray(0), c.out_y, c.out_approach, c.out_engaged),
-        max_steps=-(-n_outputs // block),
-        buffers=lambda carry: carry[1:],
+        (jnp.asarray(0), jnp.asarray(0), c.pending, c.outputs),
+        max_steps=c.outputs[0].shape[0],
+        buffers=lambda carry: carry[3],
         kind=_loop_kind(s.adjoint),
     )
-    return out
+    written = c.written + count
+    last = written // block  # the block that holds the next time: partly evaluated, or empty
+    flush = through_end & ~c.done & (written % block > 0)
+    outputs = tuple(
+        b.at[last].set(jnp.where(flush, x, b[jnp.minimum(last, b.shape[0] - 1)]))
+        for b, x in zip(outputs, pending)
+    )
+    return outputs, pending, written
+
+
+def _where_rows(rows, x, y):
+    """x in the ``rows`` (block,) where true, else y."""
+    return jnp.where(rows.reshape(rows.shape + (1,) * (x.ndim - 1)), x, y)
 
 
 def segment(s: _Setup, c: _Carry, slot):
@@ -336,7 +376,7 @@ def segment(s: _Setup, c: _Carry, slot):
     t_reached = jnp.where(c.done, c.t, t_end)
     cell_done = ok & ~hit & ~paused
     finished = c.done | ~ok | (cell_done & ((c.cell == s.stops.shape[0] - 1) | (t_stop >= s.t1)))
-    out_y, out_approach, out_engaged = _write_outputs(s, c, sol.interpolation, t_end, finished)
+    outputs, pending, written = _write_outputs(s, c, sol.interpolation, t_end, finished)
     # the next segment starts with the mean accepted step of this one, its paused parts included
     # (no step-size search; no gradient through the step sizes, as in diffrax's controllers)
     accepted = sol.stats["num_accepted_steps"] + jnp.where(c.resume, c.accepted, 0)
@@ -350,9 +390,9 @@ def segment(s: _Setup, c: _Carry, slot):
         approach=approach,
         in_contact=in_contact,
         engaged=engaged,
-        out_y=out_y,
-        out_approach=out_approach,
-        out_engaged=out_engaged,
+        outputs=outputs,
+        pending=pending,
+        written=written,
         fatigue=c.fatigue.at[c.cell].add(jnp.where(c.done, 0.0, fatigue)),
         done=finished,
         result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),

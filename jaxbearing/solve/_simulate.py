@@ -36,6 +36,7 @@ import optimistix as optx
 
 from .. import _checks
 from .._checks import is_concrete
+from .._forms import output_forms
 from ..compile import jit
 from ..multibody.mechanism import Mechanism
 from ..solution import (
@@ -48,7 +49,7 @@ from ..solution import (
     Solution,
 )
 from ._recording import _accelerations, _forces, _Recording
-from ._segment import _Setup, initial_carry, make_event, resumable, segment
+from ._segment import _Setup, initial_carry, make_event, padded_times, resumable, segment
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
@@ -294,7 +295,7 @@ def _simulate(
 
     setup = _Setup(
         model=model,
-        ts=ts,
+        ts=padded_times(ts, block),
         t0=t0,
         t1=t1,
         stops=_stops(t0, t1, time_cells, extra_stops),
@@ -309,8 +310,7 @@ def _simulate(
         progress=progress,
         adjoint=adjoint,
     )
-    T = ts.shape[0]
-    init = initial_carry(setup, y0, T, INITIAL_STEP)
+    init = initial_carry(setup, y0, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
     final, records = jax.lax.scan(functools.partial(segment, setup), init, slots)
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
@@ -321,9 +321,8 @@ def _simulate(
     return _outputs(
         model,
         ts,
-        final.out_y[:T],
-        final.out_approach[:T],
-        final.out_engaged[:T],
+        tuple(_rows(x) for x in final.outputs),
+        final.written,
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         SegmentStats(*segment_stats, used),
         fatigue,
@@ -333,6 +332,12 @@ def _simulate(
         final.rejected,
         jnp.sum(used),
     )
+
+
+def _rows(blocks):
+    """An output buffer held in blocks (`_segment._Carry.outputs`) as rows, one per output time
+    (and the padding of the last block)."""
+    return blocks.reshape((blocks.shape[0] * blocks.shape[1],) + blocks.shape[2:])
 
 
 def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
@@ -345,36 +350,40 @@ def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
 
 
 def _outputs(
-    model, ts, ys, approach, engaged, contacts, segments, fatigue, result, t_final, steps, rejected,
+    model, ts, rows, written, contacts, segments, fatigue, result, t_final, steps, rejected,
     n_used,
 ):
+    """The `Solution`: ``rows`` = (states, approach speeds, engaged balls) at the output times
+    (`_segment._Carry.outputs` as rows; the first ``written`` reached) and what is evaluated
+    from them."""
     n = model.n_coordinates
-    q, qd = ys[:, :n], ys[:, n:]
-    valid = jnp.isfinite(ys).all(axis=1)
-    safe_q = jnp.where(valid[:, None], q, model.q0)
-    safe_qd = jnp.where(valid[:, None], qd, model.qd0)
 
-    def at(t, q_, qd_, a_, e_):
-        qdd = _accelerations(model, t, q_, qd_, a_, e_, sparse=True)
+    def at(t, y, a, e, ok):
+        # outputs at one time: NaN where the run did not reach it (evaluated at q0, qd0 and no
+        # contact there, so that no NaN enters a derivative)
+        q, qd = y[:n], y[n:]
+        q_, qd_, a_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0), jnp.where(ok, a, 0.0)
+        e = ok & e
+        qdd = _accelerations(model, t, q_, qd_, a_, e, sparse=True)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
-        return {"qdd": qdd, "drift": drift, **_forces(model, t, q_, qd_, a_, e_)}
+        out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
+        out.update(_forces(model, t, q_, qd_, a_, e))
+        return jax.tree_util.tree_map(lambda x: jnp.where(ok, x, jnp.nan), out)
 
-    # in batches: a vmap over all T output times streams every intermediate through memory
-    o = jax.lax.map(lambda x: at(*x), (ts, safe_q, safe_qd, approach, engaged), batch_size=OUTPUT_BATCH)
-    nan_where_invalid = lambda x: jnp.where(valid.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
-    o = jax.tree_util.tree_map(nan_where_invalid, o)
+    with output_forms():
+        o = _evaluate(at, ts, rows, written, OUTPUT_BATCH)
     zeros = jnp.zeros_like(ts)
     return Solution(
         ts=ts,
-        q=q,
-        qd=qd,
+        q=o["q"],
+        qd=o["qd"],
         qdd=o["qdd"],
         ball_loads=o.get("ball_loads"),
         bearing_force=o.get("bearing_force"),
         cage_angle=o.get("cage"),
         contact_force=o.get("contact_force", zeros),
         penetration=o.get("penetration", zeros),
-        approach_speed=approach,
+        approach_speed=o["approach"],
         drift=o["drift"],
         contacts=contacts,
         segments=segments,
@@ -386,6 +395,32 @@ def _outputs(
         num_segments=n_used,
         target=3 * model.contacts[0].body_k if model.contacts else None,
     )
+
+
+def _evaluate(at, ts, rows, written, batch: int):
+    """``at(t, *row, ok)`` at every output time, vmapped over batches of ``batch`` times:
+    (T, ...) arrays. ``rows``: arrays of at least T rows; ``ok``: the row is among the first
+    ``written``. Each batch is written in place into the outputs; the last one
+    ends at T and so overlaps its predecessor, whose rows it evaluates again, identically (no
+    remainder to evaluate and concatenate apart)."""
+    T = ts.shape[0]
+    batch = min(batch, T)
+    index = jnp.arange(batch)
+
+    def evaluate(start):
+        t = jax.lax.dynamic_slice_in_dim(ts, start, batch)
+        row = [jax.lax.dynamic_slice_in_dim(x, start, batch) for x in rows]
+        return jax.vmap(at)(t, *row, start + index < written)
+
+    shapes = jax.eval_shape(evaluate, 0)
+    outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
+
+    def body(i, outputs):
+        start = jnp.minimum(i * batch, T - batch)
+        put = lambda buffer, x: jax.lax.dynamic_update_slice_in_dim(buffer, x, start, 0)
+        return jax.tree_util.tree_map(put, outputs, evaluate(start))
+
+    return jax.lax.fori_loop(0, -(-T // batch), body, outputs)
 
 
 def _raise_on_failure(sol: Solution, t1) -> Solution:
