@@ -63,6 +63,21 @@ def test_a_paused_segment_keeps_its_step_limit():
         jb.simulate(model, 0.01, ts, segment_steps=8, max_steps=40, time_cells=1)
 
 
+def test_a_failed_run_keeps_the_outputs_it_reached():
+    """A run that runs out of segments returns, with throw=False, the output times before its
+    t_final as a run with enough segments computes them (the same segments up to there), and
+    NaN after; the block of output times it was filling when it stopped included."""
+    model, ts = jb.cases.xu2014(impact=False), jnp.linspace(0.0, 0.02, 201)
+    full = jb.simulate(model, 0.02, ts, time_cells=4)
+    cut = jb.simulate(model, 0.02, ts, time_cells=4, max_segments=2, throw=False)
+    assert cut.result == jb.RESULTS.max_segments_reached
+    reached = np.asarray(ts) < float(cut.t_final)
+    assert 0 < reached.sum() < ts.shape[0]
+    for name in ("q", "qd", "qdd", "ball_loads"):
+        np.testing.assert_array_equal(getattr(cut, name)[reached], getattr(full, name)[reached])
+        assert np.isnan(np.asarray(getattr(cut, name))[~reached]).all(), name
+
+
 def test_pauses_count_against_max_segments():
     sol = jb.simulate(
         jb.cases.xu2014(impact=False), 0.01, jnp.array([0.0, 0.01]), segment_steps=8, max_segments=4,

@@ -87,7 +87,7 @@ class _Carry(NamedTuple):
     # output r is row [r // block, r % block]
     outputs: tuple
     pending: tuple  # the rows of the block that holds time ``written`` (block, ...): written to
-    # ``outputs`` when that block is full or the run ends
+    # ``outputs`` when that block is full (`output_rows` reads the last one here)
     written: jax.Array  # output times evaluated so far: the first ``written`` of ``ts``
     fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
@@ -290,9 +290,8 @@ def _states_at(dense: diffrax.DenseInterpolation, times, y0):
     def one(t):
         last = jnp.maximum(dense.ts_size - 2, 0)
         i = jnp.clip(jnp.searchsorted(dense.ts, t, side="left") - 1, 0, last)
-        t0, t1 = dense.ts[i], dense.ts[i + 1]
         info = jax.tree_util.tree_map(lambda x: x[i], dense.infos)
-        return dense.interpolation_cls(t0=t0, t1=t1, **info).evaluate(t)
+        return dense.interpolation_cls(t0=dense.ts[i], t1=dense.ts[i + 1], **info).evaluate(t)
 
     return jnp.where(dense.ts_size > 1, jax.vmap(one)(times), y0)
 
@@ -305,9 +304,9 @@ def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
 
     A loop over the blocks that hold these times: a block's times are evaluated at once, and a
     block that is then full is written to ``outputs`` whole, in one update in place; the last
-    one waits in ``pending`` for the next segment's rows, or is written when the run ends. So
-    each block is written once and never read, as `eqxi.while_loop`'s buffers require for
-    reverse mode."""
+    one waits in ``pending`` for the next segment's rows (`output_rows` reads it there after the
+    run). So each block is written once and never read, as `eqxi.while_loop`'s buffers require
+    for reverse mode."""
     ts, block = s.ts, s.block
     rows = jnp.arange(block)
     start = c.written // block
@@ -339,14 +338,23 @@ def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
         buffers=lambda carry: carry[3],
         kind=_loop_kind(s.adjoint),
     )
-    written = c.written + count
-    last = written // block  # the block that holds the next time: partly evaluated, or empty
-    flush = through_end & ~c.done & (written % block > 0)
-    outputs = tuple(
-        b.at[last].set(jnp.where(flush, x, b[jnp.minimum(last, b.shape[0] - 1)]))
-        for b, x in zip(outputs, pending)
-    )
-    return outputs, pending, written
+    return outputs, pending, c.written + count
+
+
+def output_rows(c: _Carry, start, size: int) -> tuple:
+    """Rows [start, start + size) of the outputs after the run, one an output time: from the
+    blocks, and from the pending block for the times it holds (its rows before ``c.written``
+    are evaluated; the blocks do not hold them)."""
+    block = c.pending[0].shape[0]
+    index = start + jnp.arange(size)
+    waiting = index // block == c.written // block
+
+    def rows(blocks, pending):
+        flat = blocks.reshape((blocks.shape[0] * block,) + blocks.shape[2:])
+        x = jax.lax.dynamic_slice_in_dim(flat, start, size)
+        return _where_rows(waiting, pending[index % block], x)
+
+    return tuple(rows(b, p) for b, p in zip(c.outputs, c.pending))
 
 
 def _where_rows(rows, x, y):

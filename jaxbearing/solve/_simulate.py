@@ -49,7 +49,15 @@ from ..solution import (
     Solution,
 )
 from ._recording import _accelerations, _forces, _Recording
-from ._segment import _Setup, initial_carry, make_event, padded_times, resumable, segment
+from ._segment import (
+    _Setup,
+    initial_carry,
+    make_event,
+    output_rows,
+    padded_times,
+    resumable,
+    segment,
+)
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
@@ -321,7 +329,7 @@ def _simulate(
     return _outputs(
         model,
         ts,
-        tuple(_rows(x) for x in final.outputs),
+        functools.partial(output_rows, final),
         final.written,
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         SegmentStats(*segment_stats, used),
@@ -332,12 +340,6 @@ def _simulate(
         final.rejected,
         jnp.sum(used),
     )
-
-
-def _rows(blocks):
-    """An output buffer held in blocks (`_segment._Carry.outputs`) as rows, one per output time
-    (and the padding of the last block)."""
-    return blocks.reshape((blocks.shape[0] * blocks.shape[1],) + blocks.shape[2:])
 
 
 def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
@@ -353,16 +355,17 @@ def _outputs(
     model, ts, rows, written, contacts, segments, fatigue, result, t_final, steps, rejected,
     n_used,
 ):
-    """The `Solution`: ``rows`` = (states, approach speeds, engaged balls) at the output times
-    (`_segment._Carry.outputs` as rows; the first ``written`` reached) and what is evaluated
-    from them."""
+    """The `Solution`: the states, approach speeds and engaged balls at the output times
+    (``rows(start, size)``, `_segment.output_rows`; the first ``written`` reached) and what is
+    evaluated from them."""
     n = model.n_coordinates
 
     def at(t, y, a, e, ok):
         # outputs at one time: NaN where the run did not reach it (evaluated at q0, qd0 and no
         # contact there, so that no NaN enters a derivative)
         q, qd = y[:n], y[n:]
-        q_, qd_, a_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0), jnp.where(ok, a, 0.0)
+        q_, qd_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0)
+        a_ = jnp.where(ok, a, 0.0)
         e = ok & e
         qdd = _accelerations(model, t, q_, qd_, a_, e, sparse=True)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
@@ -399,8 +402,8 @@ def _outputs(
 
 def _evaluate(at, ts, rows, written, batch: int):
     """``at(t, *row, ok)`` at every output time, vmapped over batches of ``batch`` times:
-    (T, ...) arrays. ``rows``: arrays of at least T rows; ``ok``: the row is among the first
-    ``written``. Each batch is written in place into the outputs; the last one
+    (T, ...) arrays. ``rows(start, size)``: the rows of those times; ``ok``: the row is among
+    the first ``written``. Each batch is written in place into the outputs; the last one
     ends at T and so overlaps its predecessor, whose rows it evaluates again, identically (no
     remainder to evaluate and concatenate apart)."""
     T = ts.shape[0]
@@ -409,8 +412,7 @@ def _evaluate(at, ts, rows, written, batch: int):
 
     def evaluate(start):
         t = jax.lax.dynamic_slice_in_dim(ts, start, batch)
-        row = [jax.lax.dynamic_slice_in_dim(x, start, batch) for x in rows]
-        return jax.vmap(at)(t, *row, start + index < written)
+        return jax.vmap(at)(t, *rows(start, batch), start + index < written)
 
     shapes = jax.eval_shape(evaluate, 0)
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
