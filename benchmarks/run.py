@@ -296,8 +296,8 @@ def _sweep(args):
 
 def _outputs(args):
     """Cost of dense output: one run with N_TS and one with DENSE_TS output times, interleaved,
-    the minimum of 2 ``repeats`` each (a ratio of two minima: with 5 calls each it scattered by
-    +-4 % from run to run here); the dense run's positions checked like a single run's."""
+    the minimum of 2 ``repeats`` each (a ratio of two minima scatters more than either wall);
+    the dense run's positions checked like a single run's."""
     _, jb = _jax()
     model = jb.cases.xu2014(impact=True)
     runs = {n: (lambda n=n: jb.simulate(model, args.t1, np.linspace(0.0, args.t1, n))) for n in (N_TS, DENSE_TS)}

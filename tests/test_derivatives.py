@@ -100,8 +100,8 @@ def check_user_transforms_and_vmap(c):
 def test_output_samples_differentiate_alike_in_both_modes():
     """Reverse mode through the output samples, not a metric: the segment loop writes the
     samples in blocks of 64 that span several segments here (about 5 samples a segment), each
-    block once (eqxi's buffers: a block written twice gets its cotangent twice; measured 2e4x
-    off). Against forward mode, which runs another loop without such buffers (its own
+    block once (eqxi's buffers: a block written twice gets its cotangent twice). Against
+    forward mode, which runs another loop without such buffers (its own
     agreement with central differences: test_sensitivities_without_impact). The modes agree to 5e-4,
     not to rounding (as for the metrics; not investigated), hence 1e-2."""
     model, name = jb.cases.xu2014(impact=False), "bearing.clearance"
