@@ -22,6 +22,7 @@ from ..solution import FORCE_SCALE, POWER, RING_POINTS_PER_BALL
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
 GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
 GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
 @functools.partial(jax.jit, static_argnames="sparse")
@@ -67,7 +68,7 @@ def _magnitude(f):
 
 
 def _integrands(t, f):
-    """The integrands (5,) of `SegmentStats` at one state with forces ``f``."""
+    """The integrands (`INTEGRALS`,) of `SegmentStats` at one state with forces ``f``."""
     zero = jnp.zeros((), t.dtype)
     magnitude = _magnitude(f)
     return jnp.stack(
@@ -174,10 +175,9 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         dense = jax.tree_util.tree_map(
             lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
         )
-        k = 3 + self.model.n_coordinates
         stats = (
-            jnp.full(k, -jnp.inf, y0.dtype),
-            jnp.zeros(5, y0.dtype),
+            jnp.full(peak_size(self.model), -jnp.inf, y0.dtype),
+            jnp.zeros(INTEGRALS, y0.dtype),
             jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
         )
         t0 = jnp.asarray(t0, y0.dtype)
@@ -206,6 +206,11 @@ def _close(model, solver, last, t_end, args, fatigue):
 def _add(stats, more):
     """(peaks, integrals, fatigue integrals) of two spans together."""
     return jnp.maximum(stats[0], more[0]), stats[1] + more[1], stats[2] + more[2]
+
+
+def peak_size(model) -> int:
+    """Length of the `SegmentStats` peaks: 3 + n_coordinates (`_peaks`)."""
+    return 3 + model.n_coordinates
 
 
 def fatigue_size(model, fatigue: bool) -> int:

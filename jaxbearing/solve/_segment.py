@@ -1,9 +1,11 @@
 """One segment of the solve: from the carry's time to the next stop or the first event, then
 the switch of what the event found (contact onsets and separations, ball engagements and
-releases). `_simulate` scans `segment` over a fixed number of slots."""
+releases). `_simulate` scans `slot` (a segment, or nothing once every member is done) over a
+fixed number of slots."""
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import diffrax
@@ -16,7 +18,7 @@ from optimistix._solver.bisection import _BisectionState  # state of the subclas
 from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
 from ._progress import _Progress
-from ._recording import _add, _close, fatigue_size
+from ._recording import INTEGRALS, _add, _close, fatigue_size, peak_size
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
@@ -252,7 +254,7 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
     """Switch what the event found, the located one and any other already across: (approach,
     in_contact, engaged, onset record (time, approach speed, contact index, valid))."""
     approach, in_contact = c.approach, c.in_contact
-    record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+    record = _no_onset(c.t)
     n, n_contacts = model.n_coordinates, len(model.contacts)
     values = event_values(model, t_end, y_end, in_contact, c.engaged)
     located = jnp.arange(values.shape[0]) == jnp.argmax(values)
@@ -268,10 +270,17 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
         record = (
             jnp.where(has_onset, t_end, jnp.nan),
             jnp.where(has_onset, jnp.sum(jnp.where(onset, rate, 0.0)), jnp.nan),
-            jnp.where(has_onset, jnp.argmax(onset), -1),
+            jnp.where(has_onset, jnp.argmax(onset), -1).astype(int),
             has_onset,
         )
     return approach, in_contact, engaged, record
+
+
+def _no_onset(t) -> tuple:
+    """The onset record of a segment without a contact onset (time, approach speed, contact
+    index, valid); ``t`` gives the dtype."""
+    nan = jnp.full((), jnp.nan, t.dtype)
+    return nan, nan, jnp.asarray(-1, int), jnp.asarray(False)
 
 
 def _loop_kind(adjoint) -> str:
@@ -378,7 +387,7 @@ def segment(s: _Setup, c: _Carry, slot):
     closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
     peaks, integrals, fatigue = _add(stats, closing)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
-    record = (jnp.nan, jnp.nan, -1, jnp.asarray(False))
+    record = _no_onset(c.t)
     if s.event is not None:
         approach, in_contact, engaged, record = _switch(s.model, c, t_end, y_end, hit)
     t_reached = jnp.where(c.done, c.t, t_end)
@@ -419,3 +428,32 @@ def segment(s: _Setup, c: _Carry, slot):
         jnp.where(c.done, 0.0, integrals),
     )
     return carry, record + (t_reached, ~c.done) + stats
+
+
+def slot(s: _Setup, c: _Carry, index):
+    """One slot of the segment loop: `segment`; under `jax.vmap`, once every member of the batch
+    is done, what `segment` gives a finished member (the same carry, an unused record) without
+    solving, so that the slots a batch leaves unused cost next to nothing."""
+
+    def idle(c, index):
+        nan = jnp.full((), jnp.nan, c.t.dtype)
+        stats = (nan, nan, jnp.zeros(peak_size(s.model), c.t.dtype), jnp.zeros(INTEGRALS, c.t.dtype))
+        return c, _no_onset(c.t) + (c.t, jnp.asarray(False)) + stats
+
+    return jax.lax.cond(_batch_runs(c.done), functools.partial(segment, s), idle, c, index)
+
+
+@jax.custom_batching.custom_vmap
+def _batch_runs(done):
+    """True: a single run's slot always runs `segment` (a finished run's slot is a zero-length
+    solve; a branch on ``done`` here made XLA round the single run differently from the same
+    point as a batch member, which tests/test_pauses.py checks). Under `jax.vmap`: whether any
+    member of the batch is not ``done``, unbatched, so that the `jax.lax.cond` stays a branch
+    (with a batched predicate it would evaluate both)."""
+    return jnp.asarray(True)
+
+
+@_batch_runs.def_vmap
+def _batch_runs_batched(axis_size, in_batched, done):
+    (batched,) = in_batched
+    return (eqxi.unvmap_any(~done) if batched else _batch_runs(done)), False

@@ -14,8 +14,9 @@ each segment until its slowest member is done, and without the cells a member th
 contact event more than another would integrate an unrelated span beside it . They end as well at
 `WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
 run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
-forward-mode differentiable, vmappable); finished members idle in zero-length solves. A run that
-needs more segments than that fails loudly.
+forward-mode differentiable, vmappable); finished members of a batch idle in zero-length solves
+while others run, and once every member is done the remaining slots branch past the solve
+(`_segment.slot`). A run that needs more segments than that fails loudly.
 
 While it integrates, the solver records per segment the peaks and integrals that
 `jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the step's
@@ -56,7 +57,7 @@ from ._segment import (
     output_rows,
     padded_times,
     resumable,
-    segment,
+    slot,
 )
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
@@ -320,7 +321,7 @@ def _simulate(
     )
     init = initial_carry(setup, y0, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
-    final, records = jax.lax.scan(functools.partial(segment, setup), init, slots)
+    final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
