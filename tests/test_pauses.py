@@ -87,6 +87,17 @@ def test_pauses_count_against_max_segments():
     assert jb.default_max_segments(_model(), 0.0, 0.2, 8) > jb.default_max_segments(_model(), 0.0, 0.2)
 
 
+def test_a_python_span_sets_the_default_segments_also_under_jit():
+    """A span given as Python numbers is known when `simulate` is traced inside the caller's jit
+    (or `jb.sensitivity`), so the default max_segments is that of the span, not of 1 s (8x the
+    slots for 0.2 s, each a zero-length solve in a single run)."""
+    model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
+    slots = lambda sol: sol.segments.t_start.shape[0]  # noqa: E731
+    plain = jb.simulate(model, 0.01, ts)
+    traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts))
+    assert slots(traced) == slots(plain) < jb.default_max_segments(model, 0.0, 1.0)
+
+
 def test_segment_steps_must_be_positive():
     with pytest.raises(ValueError, match="segment_steps must be None or at least 1"):
         jb.simulate(_model(), T1, TS, segment_steps=0)

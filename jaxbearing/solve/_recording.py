@@ -7,6 +7,7 @@ Gauss–Legendre quadrature over the step (`jaxbearing.solution`).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 
@@ -15,6 +16,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from .._forms import output_forms
 from ..laws import bearing as bearing_law
 from ..multibody.mechanism import Mechanism
 from ..solution import FORCE_SCALE, POWER, RING_POINTS_PER_BALL
@@ -29,8 +31,11 @@ INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 def _accelerations(model, t, q, qd, approach_speeds, engaged, sparse=False):
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field several times. XLA inlines the call, so the compiled
-    program is unchanged. ``sparse``: the elimination the outputs use (`_simulate._outputs`)."""
-    return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=sparse)
+    program is unchanged. ``sparse``: the elimination and the forms (`_forms.output_forms`)
+    the outputs use (`_simulate._outputs`); set here, since jit's cache of traces does not see
+    the context in which it was called."""
+    with output_forms() if sparse else contextlib.nullcontext():
+        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=sparse)
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):

@@ -161,12 +161,13 @@ def simulate(
     if not isinstance(model, Mechanism):
         raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
     _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
+    span = (t0, t1)  # as given: Python numbers stay concrete under the caller's jit
     t0, t1 = _checked_span(t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     if segment_steps is not None and not 1 <= segment_steps:
         raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     if max_segments is None:
-        max_segments = default_max_segments(model, t0, t1, segment_steps)
+        max_segments = default_max_segments(model, *span, segment_steps)
     segment_steps = min(SEGMENT_STEPS if segment_steps is None else int(segment_steps), max_steps)
     if max_segments < 1:
         raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
