@@ -131,8 +131,9 @@ def simulate(
             evaluates the output times inside it from them. Under `jax.vmap` the members run
             in lock-step, segment by segment: a member that reached an event waits for the
             others at most ``segment_steps`` steps, not until the longest segment of the batch
-            ends, which is what makes batches (sweeps) fast. None (the default):
-            `SEGMENT_STEPS`; at most ``max_steps``. `jaxbearing.sweep` pauses every
+            ends, which is what makes batches (sweeps) fast. Reverse mode stores every step of
+            a segment (`stored_steps`), so its memory grows with ``segment_steps``. None (the
+            default): `SEGMENT_STEPS`; at most ``max_steps``. `jaxbearing.sweep` pauses every
             ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
@@ -150,8 +151,10 @@ def simulate(
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
         adjoint: how diffrax differentiates each segment. The default (None) is
-            `diffrax.RecursiveCheckpointAdjoint()`, which serves `jax.grad` and `jax.jacrev`
-            (reverse mode), and becomes `diffrax.ForwardMode()` when `simulate` is traced
+            `diffrax.RecursiveCheckpointAdjoint` storing every step of a segment
+            (``checkpoints=segment_steps``, also given to one without ``checkpoints``:
+            `stored_steps` says why), which serves `jax.grad` and `jax.jacrev` (reverse mode),
+            and becomes `diffrax.ForwardMode()` when `simulate` is traced
             under `jax.jacfwd` or `jax.jvp` (forward mode, the cheaper for a few parameters;
             `jaxbearing.sensitivity`). Forward mode around your own `jax.jit` of `simulate`
             (``jax.jacfwd(jax.jit(f))``) traces `simulate` before the jvp: pass
@@ -185,6 +188,7 @@ def simulate(
     stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
     sol = _with_adjoint(
         adjoint,
+        segment_steps,
         _simulate,
         model,
         t0,
@@ -222,13 +226,31 @@ def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = N
 _NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
 
 
-def _with_adjoint(adjoint, solve, *args):
-    """``solve(*args, adjoint)``; the default (None) is `diffrax.RecursiveCheckpointAdjoint()`,
-    and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`) meets it (diffrax's reverse-mode
-    adjoints are `jax.custom_vjp`s and refuse jvp while tracing), `diffrax.ForwardMode()`. An
-    explicit adjoint that refuses forward mode gets a `TypeError` naming the one to pass."""
+def stored_steps(adjoint, segment_steps: int):
+    """``adjoint`` with every step of a segment stored for reverse mode: None becomes
+    `diffrax.RecursiveCheckpointAdjoint` with ``checkpoints=segment_steps``, and so does a
+    `RecursiveCheckpointAdjoint` without ``checkpoints``.
+
+    With fewer checkpoints than steps, diffrax's reverse pass recomputes steps from the stored
+    ones, in another compiled program than the forward pass: its rounding differs in the last
+    bits, and the step-size controller then accepts or rejects other steps than the forward pass
+    did, so the gradient mixes two trajectories (README, *Derivatives*, gives how far off;
+    tests/test_derivatives.py). Stored, the reverse pass replays nothing."""
+    if adjoint is None:
+        return diffrax.RecursiveCheckpointAdjoint(checkpoints=segment_steps)
+    if isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint) and adjoint.checkpoints is None:
+        return diffrax.RecursiveCheckpointAdjoint(checkpoints=segment_steps)
+    return adjoint
+
+
+def _with_adjoint(adjoint, segment_steps, solve, *args):
+    """``solve(*args, adjoint)``; ``adjoint`` None: `stored_steps`'s default (reverse mode,
+    every step of a segment stored), and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`)
+    meets it (diffrax's reverse-mode adjoints are `jax.custom_vjp`s and refuse jvp while
+    tracing), `diffrax.ForwardMode()`. An explicit adjoint that refuses forward mode gets a
+    `TypeError` naming the one to pass."""
     try:
-        return solve(*args, diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
+        return solve(*args, stored_steps(adjoint, segment_steps))
     except TypeError as err:
         if _NO_JVP not in str(err):
             raise
