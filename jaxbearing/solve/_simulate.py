@@ -14,9 +14,9 @@ each segment until its slowest member is done, and without the cells a member th
 contact event more than another would integrate an unrelated span beside it . They end as well at
 `WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
 run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
-forward-mode differentiable, vmappable); finished members of a batch idle in zero-length solves
-while others run, and once every member is done the remaining slots branch past the solve
-(`_segment.slot`). A run that needs more segments than that fails loudly.
+forward-mode differentiable, vmappable); finished members idle in zero-length solves, and in a
+vmapped batch the slots left once every member is done branch past the solve (`_segment.slot`).
+A run that needs more segments than that fails loudly.
 
 While it integrates, the solver records per segment the peaks and integrals that
 `jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the step's
