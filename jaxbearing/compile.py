@@ -1,12 +1,18 @@
 """How jaxbearing compiles: `jit`, `eqx.filter_jit` with the XLA options measured best here.
 
-XLA:CPU's newer fusion emitters (on by default in jax 0.10) compile the paper's case markedly
-slower and run it no faster, so `jit` turns ``xla_cpu_use_fusion_emitters`` off (README and
-benchmarks/results.json give the compile and run times; benchmarks/run.py measures them). The
-option exists on XLA:CPU only, and only in some releases: GPU builds of JAX refuse it ("No such
-compile option"), and so does the CPU compiler of jax 0.11. `jit` passes it only when it
-compiles for the CPU (`compiler_options`, `target_platform`) and that CPU compiler accepts it
-(`cpu_options_supported`, asked once a process), and passes no options elsewhere.
+Two XLA:CPU options, each measured on the paper's case (README and benchmarks/results.json give
+the figures; benchmarks/run.py measures them):
+- ``xla_cpu_use_fusion_emitters`` off: XLA:CPU's newer fusion emitters (on by default in jax
+  0.10) compile the paper's case markedly slower and run it no faster;
+- ``xla_cpu_experimental_ynn_fusion_type`` empty: no YNNPACK fusions. XLA:CPU hands small
+  reductions and matrix products (sums over 2 to 9 numbers, the 9 x 12 products of the
+  constraint solve) to YNNPACK, whose fixed cost per call exceeds their arithmetic many times;
+  without them a run and the batched evaluation of its outputs are faster.
+Both exist on XLA:CPU only, and only in some releases: GPU builds of JAX refuse them ("No such
+compile option"), and the CPU compiler of jax 0.11 refuses the first. `jit` passes them only
+when it compiles for the CPU (`compiler_options`, `target_platform`), and of those only the
+ones that CPU compiler accepts (`accepted_cpu_options`, each asked once a process); none
+elsewhere.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
@@ -31,26 +37,33 @@ except ImportError:  # pragma: no cover
     def trace_state_clean() -> bool:
         return False
 
-CPU_COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+CPU_COMPILER_OPTIONS = {
+    "xla_cpu_use_fusion_emitters": False,
+    "xla_cpu_experimental_ynn_fusion_type": "",
+}
 
 
 def compiler_options(platform: str) -> dict:
-    """The XLA options for a platform (``"cpu"``, ``"gpu"``, ``"cuda"``, ``"tpu"``, ...):
-    `CPU_COMPILER_OPTIONS` on a CPU whose compiler accepts them, none elsewhere."""
-    return dict(CPU_COMPILER_OPTIONS) if platform == "cpu" and cpu_options_supported() else {}
+    """The XLA options for a platform (``"cpu"``, ``"gpu"``, ``"cuda"``, ``"tpu"``, ...): those
+    of `CPU_COMPILER_OPTIONS` that this CPU compiler accepts on a CPU, none elsewhere."""
+    return dict(accepted_cpu_options()) if platform == "cpu" else {}
 
 
 @functools.cache
-def cpu_options_supported() -> bool:
-    """Whether this jaxlib's XLA:CPU accepts `CPU_COMPILER_OPTIONS` (one tiny compile, once)."""
-    try:
-        x = jax.device_put(0.0, jax.devices("cpu")[0])
-        jax.jit(lambda v: v + 1, compiler_options=CPU_COMPILER_OPTIONS)(x)
-    except jax.errors.JaxRuntimeError as error:
-        if "No such compile option" in str(error):
-            return False
-        raise
-    return True
+def accepted_cpu_options() -> dict:
+    """The options of `CPU_COMPILER_OPTIONS` that this jaxlib's XLA:CPU accepts (one tiny
+    compile per option, once a process)."""
+    x = jax.device_put(0.0, jax.devices("cpu")[0])
+    accepted = {}
+    for name, value in CPU_COMPILER_OPTIONS.items():
+        try:
+            jax.jit(lambda v: v + 1, compiler_options={name: value})(x)
+        except jax.errors.JaxRuntimeError as error:
+            if "No such compile option" in str(error):
+                continue
+            raise
+        accepted[name] = value
+    return accepted
 
 
 def target_platform(args) -> str:

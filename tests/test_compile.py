@@ -10,6 +10,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import jaxbearing as jb
 from jaxbearing import compile as jbcompile
@@ -41,24 +42,41 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
 
 
 def test_cpu_options_go_to_the_cpu_only():
-    expected = jbcompile.CPU_COMPILER_OPTIONS if jbcompile.cpu_options_supported() else {}
-    assert jbcompile.compiler_options("cpu") == expected
+    assert jbcompile.compiler_options("cpu") == jbcompile.accepted_cpu_options()
     for platform in ("gpu", "cuda", "rocm", "tpu", "METAL"):
         assert jbcompile.compiler_options(platform) == {}
 
 
+def test_the_ynnpack_option_keeps_small_reductions_out_of_ynnpack():
+    """XLA:CPU of jax 0.10 hands a small reduction to a YNNPACK fusion by default; with
+    `compiler_options` the compiled program holds none."""
+    if "xla_cpu_experimental_ynn_fusion_type" not in jbcompile.accepted_cpu_options():
+        pytest.skip("this XLA:CPU has no YNNPACK fusion option")
+    x = jnp.ones((2048, 2))
+    reduce = lambda x: jnp.sum(x * x, axis=1)
+    plain = jax.jit(reduce).lower(x).compile().as_text()
+    if "__ynn_fusion" not in plain:
+        pytest.skip("this XLA:CPU does not hand the reduction to YNNPACK by default")
+    ours = jax.jit(reduce, compiler_options=jbcompile.compiler_options("cpu")).lower(x).compile().as_text()
+    assert "__ynn_fusion" not in ours
+
+
 def test_cpu_options_are_dropped_where_the_cpu_compiler_refuses_them(monkeypatch):
     """jax 0.11's XLA:CPU no longer knows the fusion-emitter switch and refuses it: the probe
-    must see that (here faked with an option no XLA knows) and `jit` must then still run."""
-    jbcompile.cpu_options_supported.cache_clear()
-    monkeypatch.setattr(jbcompile, "CPU_COMPILER_OPTIONS", {"xla_no_such_option_anywhere": True})
+    must drop that option (here faked with one no XLA knows), keep the others, and `jit` must
+    then still run."""
+    jbcompile.accepted_cpu_options.cache_clear()
+    unknown = {"xla_no_such_option_anywhere": True}
+    monkeypatch.setattr(jbcompile, "CPU_COMPILER_OPTIONS", {**unknown, "xla_cpu_use_fusion_emitters": False})
     try:
-        assert not jbcompile.cpu_options_supported()
+        assert jbcompile.compiler_options("cpu") == {"xla_cpu_use_fusion_emitters": False}
+        monkeypatch.setattr(jbcompile, "CPU_COMPILER_OPTIONS", unknown)
+        jbcompile.accepted_cpu_options.cache_clear()
         assert jbcompile.compiler_options("cpu") == {}
         f = jb.jit(lambda x: 2.0 * x)
         np.testing.assert_allclose(f(jnp.ones(2)), 2.0)
     finally:
-        jbcompile.cpu_options_supported.cache_clear()
+        jbcompile.accepted_cpu_options.cache_clear()
 
 
 def test_target_platform_follows_committed_inputs_then_default_device_then_backend():
@@ -89,5 +107,5 @@ def test_jit_compiles_for_a_gpu_target_without_cpu_options(monkeypatch):
     assert passed == [None, None]  # the nested and the top-level (gpu) compilation
     monkeypatch.setattr(jbcompile, "target_platform", lambda args: "cpu")
     f(jnp.ones(2))
-    assert passed[-1] == (jbcompile.CPU_COMPILER_OPTIONS if jbcompile.cpu_options_supported() else None)
+    assert passed[-1] == (jbcompile.accepted_cpu_options() or None)
 

@@ -350,10 +350,11 @@ def _write_outputs(s: _Setup, c: _Carry, dense, t_end, through_end):
     return outputs, pending, c.written + count
 
 
-def output_rows(c: _Carry, start, size: int) -> tuple:
+def output_rows(c: _Carry, start, size: int, in_blocks: bool = False) -> tuple:
     """Rows [start, start + size) of the outputs after the run, one an output time: from the
     blocks, and from the pending block for the times it holds (its rows before ``c.written``
-    are evaluated; the blocks do not hold them)."""
+    are evaluated; the blocks do not hold them). ``in_blocks``: the rows lie before
+    `full_rows`, so the blocks alone hold them."""
     block = c.pending[0].shape[0]
     index = start + jnp.arange(size)
     waiting = index // block == c.written // block
@@ -361,9 +362,15 @@ def output_rows(c: _Carry, start, size: int) -> tuple:
     def rows(blocks, pending):
         flat = blocks.reshape((blocks.shape[0] * block,) + blocks.shape[2:])
         x = jax.lax.dynamic_slice_in_dim(flat, start, size)
-        return _where_rows(waiting, pending[index % block], x)
+        return x if in_blocks else _where_rows(waiting, pending[index % block], x)
 
     return tuple(rows(b, p) for b, p in zip(c.outputs, c.pending))
+
+
+def full_rows(c: _Carry) -> jax.Array:
+    """The number of output times that full blocks hold after the run: all evaluated."""
+    block = c.pending[0].shape[0]
+    return c.written // block * block
 
 
 def _where_rows(rows, x, y):

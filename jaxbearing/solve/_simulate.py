@@ -30,6 +30,7 @@ import math
 
 import diffrax
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -52,6 +53,7 @@ from ..solution import (
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
+    full_rows,
     initial_carry,
     make_event,
     output_rows,
@@ -355,6 +357,7 @@ def _simulate(
         ts,
         functools.partial(output_rows, final),
         final.written,
+        full_rows(final),
         Contacts(onset_t, onset_v, onset_i, onset_valid),
         SegmentStats(*segment_stats, used),
         fatigue,
@@ -376,29 +379,33 @@ def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
 
 
 def _outputs(
-    model, ts, rows, written, contacts, segments, fatigue, result, t_final, steps, rejected,
+    model, ts, rows, written, full, contacts, segments, fatigue, result, t_final, steps, rejected,
     n_used,
 ):
     """The `Solution`: the states, approach speeds and engaged balls at the output times
-    (``rows(start, size)``, `_segment.output_rows`; the first ``written`` reached) and what is
-    evaluated from them."""
+    (``rows(start, size)``, `_segment.output_rows`; the first ``written`` reached, the first
+    ``full`` in full blocks) and what is evaluated from them."""
     n = model.n_coordinates
 
     def at(t, y, a, e, ok):
-        # outputs at one time: NaN where the run did not reach it (evaluated at q0, qd0 and no
-        # contact there, so that no NaN enters a derivative)
+        # outputs at one time; ok None: the run reached it. Else NaN where it did not (evaluated
+        # at q0, qd0 and no contact there, so that no NaN enters a derivative)
         q, qd = y[:n], y[n:]
-        q_, qd_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0)
-        a_ = jnp.where(ok, a, 0.0)
-        e = ok & e
+        if ok is None:
+            q_, qd_, a_ = q, qd, a
+        else:
+            q_, qd_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0)
+            a_, e = jnp.where(ok, a, 0.0), ok & e
         qdd = _accelerations(model, t, q_, qd_, a_, e, sparse=True)
         drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
         out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
         out.update(_forces(model, t, q_, qd_, a_, e))
+        if ok is None:
+            return out
         return jax.tree_util.tree_map(lambda x: jnp.where(ok, x, jnp.nan), out)
 
     with output_forms():
-        o = _evaluate(at, ts, rows, written, OUTPUT_BATCH)
+        o = _evaluate(at, ts, rows, written, full, OUTPUT_BATCH)
     zeros = jnp.zeros_like(ts)
     return Solution(
         ts=ts,
@@ -424,19 +431,23 @@ def _outputs(
     )
 
 
-def _evaluate(at, ts, rows, written, batch: int):
+def _evaluate(at, ts, rows, written, full, batch: int):
     """``at(t, *row, ok)`` at every output time, vmapped over batches of ``batch`` times:
-    (T, ...) arrays. ``rows(start, size)``: the rows of those times; ``ok``: the row is among
-    the first ``written``. Each batch is written in place into the outputs; the last one
-    ends at T and so overlaps its predecessor, whose rows it evaluates again, identically (no
-    remainder to evaluate and concatenate apart)."""
+    (T, ...) arrays. ``rows(start, size, in_blocks)``: the rows of those times; ``ok``: the row
+    is among the first ``written``, or None for a batch within the first ``full`` rows (in a
+    vmapped run, of every member), which is evaluated without masks: every batch of a
+    successful run but the last one or two. Each batch is written in place into the outputs;
+    the last one ends at T and so overlaps its predecessor, whose rows it evaluates again,
+    identically (no remainder to evaluate and concatenate apart)."""
     T = ts.shape[0]
     batch = min(batch, T)
     index = jnp.arange(batch)
 
     def evaluate(start):
         t = jax.lax.dynamic_slice_in_dim(ts, start, batch)
-        return jax.vmap(at)(t, *rows(start, batch), start + index < written)
+        reached = lambda: jax.vmap(lambda *row: at(*row, None))(t, *rows(start, batch, True))
+        masked = lambda: jax.vmap(at)(t, *rows(start, batch), start + index < written)
+        return jax.lax.cond(eqxi.unvmap_all(start + batch <= full), reached, masked)
 
     shapes = jax.eval_shape(evaluate, 0)
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
