@@ -387,25 +387,24 @@ def _outputs(
     ``full`` in full blocks) and what is evaluated from them."""
     n = model.n_coordinates
 
-    def at(t, y, a, e, ok):
-        # outputs at one time; ok None: the run reached it. Else NaN where it did not (evaluated
-        # at q0, qd0 and no contact there, so that no NaN enters a derivative)
+    def at(t, y, a, e):
+        # outputs at one time
         q, qd = y[:n], y[n:]
-        if ok is None:
-            q_, qd_, a_ = q, qd, a
-        else:
-            q_, qd_ = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0)
-            a_, e = jnp.where(ok, a, 0.0), ok & e
-        qdd = _accelerations(model, t, q_, qd_, a_, e, sparse=True)
-        drift = jnp.max(jnp.abs(model.constraints(q_, t))) if model.joints else jnp.zeros(())
+        qdd = _accelerations(model, t, q, qd, a, e, sparse=True)
+        drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
         out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
-        out.update(_forces(model, t, q_, qd_, a_, e))
-        if ok is None:
-            return out
-        return jax.tree_util.tree_map(lambda x: jnp.where(ok, x, jnp.nan), out)
+        out.update(_forces(model, t, q, qd, a, e))
+        return out
+
+    def at_rest(y, a, e, reached):
+        # rows (batch, ...) with those the run did not reach at q0, qd0 and no contact, so that
+        # no NaN enters a derivative (their outputs become NaN)
+        reached = reached[:, None]
+        start = jnp.concatenate([model.q0, model.qd0])
+        return jnp.where(reached, y, start), jnp.where(reached, a, 0.0), reached & e
 
     with output_forms():
-        o = _evaluate(at, ts, rows, written, full, OUTPUT_BATCH)
+        o = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
     zeros = jnp.zeros_like(ts)
     return Solution(
         ts=ts,
@@ -431,23 +430,30 @@ def _outputs(
     )
 
 
-def _evaluate(at, ts, rows, written, full, batch: int):
-    """``at(t, *row, ok)`` at every output time, vmapped over batches of ``batch`` times:
-    (T, ...) arrays. ``rows(start, size, in_blocks)``: the rows of those times; ``ok``: the row
-    is among the first ``written``, or None for a batch within the first ``full`` rows (in a
-    vmapped run, of every member), which is evaluated without masks: every batch of a
-    successful run but the last one or two. Each batch is written in place into the outputs;
-    the last one ends at T and so overlaps its predecessor, whose rows it evaluates again,
-    identically (no remainder to evaluate and concatenate apart)."""
+def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
+    """``at(t, *row)`` at every output time, vmapped over batches of ``batch`` times: (T, ...)
+    arrays, NaN at the times after the first ``written`` (the run did not reach them).
+
+    ``rows(start, size, in_blocks)`` gives the rows of those times. A batch within the first
+    ``full`` (in a vmapped run, for every member) reads them from the full blocks as they are:
+    every batch of a successful run but the last one or two. Any other merges the pending
+    block and passes its rows through ``at_rest(*rows, reached)``. Each batch is written in
+    place into the outputs; the last one ends at T and so overlaps its predecessor, whose rows
+    it evaluates again, identically (no remainder to evaluate and concatenate apart)."""
     T = ts.shape[0]
     batch = min(batch, T)
     index = jnp.arange(batch)
 
     def evaluate(start):
         t = jax.lax.dynamic_slice_in_dim(ts, start, batch)
-        reached = lambda: jax.vmap(lambda *row: at(*row, None))(t, *rows(start, batch, True))
-        masked = lambda: jax.vmap(at)(t, *rows(start, batch), start + index < written)
-        return jax.lax.cond(eqxi.unvmap_all(start + batch <= full), reached, masked)
+        reached = start + index < written
+        row = jax.lax.cond(
+            eqxi.unvmap_all(start + batch <= full),
+            lambda: rows(start, batch, True),
+            lambda: at_rest(*rows(start, batch), reached),
+        )
+        nan_unless = lambda x: jnp.where(reached.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
+        return jax.tree_util.tree_map(nan_unless, jax.vmap(at)(t, *row))
 
     shapes = jax.eval_shape(evaluate, 0)
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
