@@ -357,12 +357,13 @@ def output_rows(c: _Carry, start, size: int, in_blocks: bool = False) -> tuple:
     `full_rows`, so the blocks alone hold them."""
     block = c.pending[0].shape[0]
     index = start + jnp.arange(size)
-    waiting = index // block == c.written // block
 
     def rows(blocks, pending):
         flat = blocks.reshape((blocks.shape[0] * block,) + blocks.shape[2:])
         x = jax.lax.dynamic_slice_in_dim(flat, start, size)
-        return x if in_blocks else _where_rows(waiting, pending[index % block], x)
+        if in_blocks:
+            return x
+        return _where_rows(index // block == c.written // block, pending[index % block], x)
 
     return tuple(rows(b, p) for b, p in zip(c.outputs, c.pending))
 

@@ -53,6 +53,7 @@ from ..solution import (
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
+    _where_rows,
     full_rows,
     initial_carry,
     make_event,
@@ -238,9 +239,8 @@ def stored_steps(adjoint, segment_steps: int):
     bits, and the step-size controller then accepts or rejects other steps than the forward pass
     did, so the gradient mixes two trajectories (README, *Derivatives*, gives how far off;
     tests/test_derivatives.py). Stored, the reverse pass replays nothing."""
-    if adjoint is None:
-        return diffrax.RecursiveCheckpointAdjoint(checkpoints=segment_steps)
-    if isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint) and adjoint.checkpoints is None:
+    checkpointed = isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint)
+    if adjoint is None or (checkpointed and adjoint.checkpoints is None):
         return diffrax.RecursiveCheckpointAdjoint(checkpoints=segment_steps)
     return adjoint
 
@@ -399,9 +399,9 @@ def _outputs(
     def at_rest(y, a, e, reached):
         # rows (batch, ...) with those the run did not reach at q0, qd0 and no contact, so that
         # no NaN enters a derivative (their outputs become NaN)
-        reached = reached[:, None]
         start = jnp.concatenate([model.q0, model.qd0])
-        return jnp.where(reached, y, start), jnp.where(reached, a, 0.0), reached & e
+        keep = lambda x, rest: _where_rows(reached, x, rest)  # noqa: E731
+        return keep(y, start), keep(a, 0.0), keep(e, False)
 
     with output_forms():
         o = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
@@ -452,8 +452,8 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
             lambda: rows(start, batch, True),
             lambda: at_rest(*rows(start, batch), reached),
         )
-        nan_unless = lambda x: jnp.where(reached.reshape((-1,) + (1,) * (x.ndim - 1)), x, jnp.nan)
-        return jax.tree_util.tree_map(nan_unless, jax.vmap(at)(t, *row))
+        values = jax.vmap(at)(t, *row)
+        return jax.tree_util.tree_map(lambda x: _where_rows(reached, x, jnp.nan), values)
 
     shapes = jax.eval_shape(evaluate, 0)
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
