@@ -9,7 +9,9 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
 
 - one simulation after compilation (fastest of ``--repeats``) for each solver row of `SOLVERS`:
   the default (Tsit5), Dopri5 and Kvaerno5, with steps taken and rejected, and Kvaerno5 with
-  the smooth ball force (the model for gradients);
+  the smooth ball force (the model for gradients); every CPU item runs with
+  `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), and one Tsit5 row
+  without it (``--plain-loops``), for the gain;
 - compile time of a forward run and of a 3-parameter forward-mode gradient, and the cost of that
   gradient (clearance, restitution, ball stiffness; smooth peak ball load) relative to one
   forward run of the same model and metric, for the paper and the smooth ball force;
@@ -66,11 +68,12 @@ REFERENCE_FACTOR = 1e-3  # reference tolerances relative to the timed ones
 POSITION_TOLERANCE = 1e-7  # [m]
 LOAD_TOLERANCE = 0.5  # [N]
 POSITIONS = [0, 1, 3, 4, 6, 7, 9, 10]  # x, y of every body
-SOLVERS = (  # (row label, solver name, ball force)
-    ("default (Tsit5)", "default", "paper"),
-    ("Dopri5", "dopri5", "paper"),
-    ("Kvaerno5", "kvaerno5", "paper"),
-    ("Kvaerno5, smooth force", "kvaerno5", "smooth"),
+SOLVERS = (  # (row label, solver name, ball force, loops as kernel sequences)
+    ("default (Tsit5)", "default", "paper", False),
+    ("Dopri5", "dopri5", "paper", False),
+    ("Kvaerno5", "kvaerno5", "paper", False),
+    ("Kvaerno5, smooth force", "kvaerno5", "smooth", False),
+    ("Tsit5, plain loops", "default", "paper", True),
 )
 SCIPY_METHODS = ("LSODA", "BDF", "Radau", "RK45")
 SCIPY_MAX_WALL = 300.0  # [s] cap per SciPy run
@@ -412,8 +415,8 @@ def measure(args, results) -> dict:
 def _singles(args, settings, results):
     results["single"] = []
     print("\none simulation after compilation")
-    for label, solver, force in SOLVERS[: args.solver_rows]:
-        row = dict(label=label, **_child("single", settings, solver=solver, force=force))
+    for label, solver, force, plain in SOLVERS[: args.solver_rows]:
+        row = dict(label=label, **_child("single", settings, solver=solver, force=force, plain_loops=plain))
         results["single"].append(row)
         print(
             f"  {label:24s} {row['wall_s']:7.3f} s  compile {row['compile_s']:5.1f} s  steps {row['steps']:6d} "
@@ -596,9 +599,16 @@ def main(argv=None):
     parser.add_argument("--method")
     parser.add_argument("--sweep-ts", type=int, default=0, help="output times of a sweep member (0: the sweep's default)")
     parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
+    parser.add_argument("--plain-loops", action="store_true",
+                        help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
     args = parser.parse_args(argv)
     if args.item:
+        if not args.plain_loops:
+            from jaxbearing.compile import enable_loop_kernels
+
+            enable_loop_kernels()
         row = ITEMS[args.item](args)
+        row["loop_kernels"] = not args.plain_loops
         row["peak_memory_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(json.dumps(row))
         return

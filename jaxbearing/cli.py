@@ -92,6 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def run_xu2014(args) -> int:
     """The ``xu2014`` command: check the settings, then run, report and write each case."""
+    from .compile import enable_loop_kernels
+
+    enable_loop_kernels()
     import jax
 
     jax.config.update("jax_enable_x64", True)

@@ -18,6 +18,19 @@ elsewhere.
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
 single kernels round differently (a metric 4e-5 apart), and batches ran no faster.
 
+One more setting makes a simulation much cheaper on the CPU (README, *Performance and solvers*),
+and `jit` cannot pass it: XLA:CPU runs a program as a sequence of kernel calls, each with a fixed
+cost, except the while loops that its small-while-loop pass compiles whole, into one function;
+by default only loops that touch less than about a kilobyte (by XLA's cost analysis) qualify.
+`enable_loop_kernels` raises that limit (`LOOP_KERNELS_FLAG`), so that the solver's loops run as
+single functions. It is an entry of
+XLA's ``xla_backend_extra_options``, a map that compile options cannot carry, so it goes through
+the ``XLA_FLAGS`` environment variable, which XLA reads once, when JAX starts its backends:
+call it before the first computation (the ``jaxbearing`` command, the studies and the
+benchmark do). Other backends ignore it (XLA hands no ``xla_`` entry of that map to LLVM).
+Loops that call library routines (the LU factorisation of Kvaerno5's Newton iteration) stay as
+they are.
+
 JAX accepts compiler options on the outermost jit only. `jit` therefore applies them when called
 outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from
 Python) and compiles plainly when called inside one (your own `jax.jit`, `jax.vmap`,
@@ -27,6 +40,7 @@ Python) and compiles plainly when called inside one (your own `jax.jit`, `jax.vm
 from __future__ import annotations
 
 import functools
+import os
 
 import equinox as eqx
 import jax
@@ -36,6 +50,14 @@ try:  # True outside every transformation; private, so without it the options ar
 except ImportError:  # pragma: no cover
     def trace_state_clean() -> bool:
         return False
+
+try:  # whether JAX has started its backends (and XLA read XLA_FLAGS); private
+    from jax._src.xla_bridge import backends_are_initialized
+except ImportError:  # pragma: no cover
+    def backends_are_initialized() -> bool:
+        return True
+
+LOOP_KERNELS_FLAG = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000"
 
 CPU_COMPILER_OPTIONS = {
     "xla_cpu_use_fusion_emitters": False,
@@ -64,6 +86,22 @@ def accepted_cpu_options() -> dict:
             raise
         accepted[name] = value
     return accepted
+
+
+def enable_loop_kernels() -> bool:
+    """Let XLA:CPU compile each while loop that touches less than 1 GB into one function
+    (module docstring): appends `LOOP_KERNELS_FLAG` to ``XLA_FLAGS``. Returns whether the
+    setting is in effect: True when ``XLA_FLAGS`` already held it or JAX has not started its
+    backends yet; False, changing nothing, once they run without it (then set ``XLA_FLAGS``
+    before starting Python). Results agree with and without it to the solver's tolerance, not
+    to the last bit."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if LOOP_KERNELS_FLAG in flags.split():
+        return True
+    if backends_are_initialized():
+        return False
+    os.environ["XLA_FLAGS"] = f"{flags} {LOOP_KERNELS_FLAG}".strip()
+    return True
 
 
 def target_platform(args) -> str:

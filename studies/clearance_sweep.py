@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from jaxbearing.compile import enable_loop_kernels
+
 CLEARANCES_UM = [5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 80.0]  # the paper's 40 µm among them
 RESTITUTIONS = [0.5, 0.7, 0.9, 1.0]  # the paper's 0.9 among them
 QUICK_CLEARANCES_UM = [20.0, 60.0]
@@ -35,6 +37,7 @@ PLOTTED = {
 
 
 def main(argv=None) -> int:
+    enable_loop_kernels()  # before the first computation: loops compiled whole
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="2 x 2 grid, t1 = 0.12 s")
     parser.add_argument("--out", default=None, help="output folder (default results/clearance_sweep[_quick])")

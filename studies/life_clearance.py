@@ -32,6 +32,7 @@ import optax  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
 from jaxbearing.cases import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
+from jaxbearing.compile import enable_loop_kernels  # noqa: E402
 
 GROOVES = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
 
@@ -46,6 +47,7 @@ def log_life(model, t1, ts, **kw):
 
 
 def main(argv=None):
+    enable_loop_kernels()  # before the first computation: loops compiled whole
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 clearances, 0.12 s, 2 steps (tests)")
     parser.add_argument("--out", default="results/life_clearance")

@@ -6,6 +6,11 @@ top-level jax.jit"), and GPU builds refuse XLA:CPU's options ("No such compile o
 `simulate` must keep working inside a user's jit, vmap and grad, and on every backend.
 """
 
+import json
+import os
+import subprocess
+import sys
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -109,3 +114,44 @@ def test_jit_compiles_for_a_gpu_target_without_cpu_options(monkeypatch):
     f(jnp.ones(2))
     assert passed[-1] == (jbcompile.accepted_cpu_options() or None)
 
+
+
+def test_loop_kernels_are_refused_once_the_backends_run(monkeypatch):
+    """XLA reads XLA_FLAGS when JAX starts its backends (here they run): too late to add the flag,
+    so nothing changes; a flag set before is reported in effect."""
+    monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=1")
+    assert not jb.enable_loop_kernels()
+    assert os.environ["XLA_FLAGS"] == "--xla_force_host_platform_device_count=1"
+    monkeypatch.setenv("XLA_FLAGS", jbcompile.LOOP_KERNELS_FLAG)
+    assert jb.enable_loop_kernels()
+
+
+_FRESH = """
+import json, sys
+import jax, numpy as np
+import jaxbearing as jb
+enabled = jb.enable_loop_kernels() if sys.argv[1] == "on" else False
+jax.config.update("jax_enable_x64", True)
+loop = jax.jit(lambda x: jax.lax.fori_loop(0, 3, lambda i, v: jax.numpy.sin(v)[::-1], x))
+whole = "xla_cpu_small_call" in loop.lower(jax.numpy.ones(300)).compile().as_text()
+sol = jb.simulate(jb.cases.xu2014(impact=False), 0.002, np.linspace(0.0, 0.002, 3), time_cells=1)
+print(json.dumps(dict(enabled=enabled, whole=whole, q=np.asarray(sol.q).tolist())))
+"""
+
+
+def _fresh(mode):
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    done = subprocess.run([sys.executable, "-c", _FRESH, mode], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_loop_kernels_compile_loops_whole_in_a_fresh_process():
+    """Before the first computation the flag takes effect: XLA:CPU compiles the loop into one
+    call (``xla_cpu_small_call``); the simulation agrees with the plain one to the solver's
+    accuracy (other kernels round differently, as in
+    test_simulate_inside_a_user_jit_equals_the_top_level_call)."""
+    on, off = _fresh("on"), _fresh("off")
+    assert on["enabled"] and on["whole"]
+    assert not off["whole"]
+    np.testing.assert_allclose(on["q"], off["q"], rtol=0, atol=2e-8)
