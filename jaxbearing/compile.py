@@ -23,13 +23,12 @@ and `jit` cannot pass it: XLA:CPU runs a program as a sequence of kernel calls, 
 cost, except the while loops that its small-while-loop pass compiles whole, into one function;
 by default only loops that touch less than about a kilobyte (by XLA's cost analysis) qualify.
 `enable_loop_kernels` raises that limit (`LOOP_KERNELS_FLAG`), so that the solver's loops run as
-single functions. It is an entry of
-XLA's ``xla_backend_extra_options``, a map that compile options cannot carry, so it goes through
-the ``XLA_FLAGS`` environment variable, which XLA reads once, when JAX starts its backends:
-call it before the first computation (the ``jaxbearing`` command, the studies and the
-benchmark do). Other backends ignore it (XLA hands no ``xla_`` entry of that map to LLVM).
-Loops that call library routines (the LU factorisation of Kvaerno5's Newton iteration) stay as
-they are.
+single functions. It is an entry of XLA's ``xla_backend_extra_options``, a map that compile
+options cannot carry, so it goes through the ``XLA_FLAGS`` environment variable, which XLA reads
+once, when JAX starts its backends: call it before the first computation (the ``jaxbearing``
+command, the studies and the benchmark do). Other backends ignore it (XLA hands no ``xla_``
+entry of that map to LLVM). Loops that call library routines (the LU factorisation of
+Kvaerno5's Newton iteration) stay as they are.
 
 JAX accepts compiler options on the outermost jit only. `jit` therefore applies them when called
 outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from

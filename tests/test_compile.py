@@ -115,7 +115,6 @@ def test_jit_compiles_for_a_gpu_target_without_cpu_options(monkeypatch):
     assert passed[-1] == (jbcompile.accepted_cpu_options() or None)
 
 
-
 def test_loop_kernels_are_refused_once_the_backends_run(monkeypatch):
     """XLA reads XLA_FLAGS when JAX starts its backends (here they run): too late to add the flag,
     so nothing changes; a flag set before is reported in effect."""
