@@ -204,7 +204,10 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
             assert int(point.status) == int(status)
             if int(status) == 0:
                 for name in METRICS:
-                    np.testing.assert_allclose(float(point[name]), float(values[name]), rtol=1e-12, atol=0, err_msg=f"{name} {c} {d}")
+                    np.testing.assert_allclose(
+                        float(point[name]), float(values[name]), rtol=1e-12, atol=0,
+                        err_msg=f"{name} at clearance {c}, damping {d}",
+                    )
 
     # the failed members are reported with their parameters: a warning and an attribute
     failures = json.loads(ds.attrs["failures"])
