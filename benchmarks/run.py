@@ -49,6 +49,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 import resource
 import subprocess
 import sys
@@ -105,6 +106,27 @@ def _solver(name):
 
     _, jb = _jax()
     return {"default": None, "tsit5": diffrax.Tsit5(), "dopri5": diffrax.Dopri5(), "kvaerno5": jb.kvaerno5()}[name]
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (/proc/cpuinfo, else `platform.processor`): results that call
+    LAPACK (Kvaerno5's Newton iteration) may round, and so step, differently on another CPU."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
+    except OSError:
+        names = []
+    return names[0] if names else platform.processor()
+
+
+def _versions() -> dict:
+    """The versions the figures depend on: `jaxbearing.provenance.versions` and SciPy's (the
+    baseline)."""
+    from importlib import metadata
+
+    from jaxbearing import provenance
+
+    return dict(provenance.versions(), scipy=metadata.version("scipy"))
 
 
 def _device_kind():
@@ -390,7 +412,8 @@ def measure(args, results) -> dict:
     settings = dict(t1=args.t1, repeats=args.repeats, reference=args.reference)
     print(f"reference runs (rtol {RTOL * REFERENCE_FACTOR:g}) ...", flush=True)
     results.update(
-        machine=dict(cpus=os.cpu_count(), load_average=os.getloadavg()),
+        machine=dict(cpus=os.cpu_count(), cpu_model=_cpu_model(), load_average=os.getloadavg()),
+        versions=_versions(),
         t1_s=args.t1,
         output_times=N_TS,
         rtol=RTOL,

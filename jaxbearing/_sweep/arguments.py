@@ -18,9 +18,9 @@ from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate
 
-DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (README: measured)
+DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
-SEGMENT_STEPS = 8  # a member's segments pause after this many steps (README: 4, 8, 16 measured)
+SEGMENT_STEPS = 8  # a member's segments pause after this many steps (docs/performance.md: 4-12)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue

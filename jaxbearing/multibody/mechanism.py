@@ -15,10 +15,10 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
 - sparse (`solve_spd_entries`, ``accelerations(..., sparse=True)``): S, its LDL^T factors and
   Phi_q^T lambda written out entry by entry on the sparsity of Phi_q, which the joints' types and
   bodies fix. For the paper's slider–crank it is a few hundred scalar operations, cheaper
-  vmapped over a batch (README, *Where the time goes*); `simulate` evaluates the outputs with it. XLA rounds it
-  differently in single and batched programs (it reassociates the scalar chains of one and not
-  the other), and in the solver that difference would grow into another step sequence, so the
-  solver keeps the dense one; the outputs do not feed back into the solution.
+  vmapped over a batch (docs/performance.md); `simulate` evaluates the outputs with it. XLA
+  rounds it differently in single and batched programs (it reassociates the scalar chains of
+  one and not the other), and in the solver that difference would grow into another step
+  sequence, so the solver keeps the dense one; the outputs do not feed back into the solution.
 """
 
 from __future__ import annotations
