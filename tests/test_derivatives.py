@@ -96,6 +96,7 @@ def check_user_transforms_and_vmap(c):
         assert float(batched[1]) == pytest.approx(converged_difference(c.value, second, name), rel=AGREE)
 
 
+@pytest.mark.slow  # ~70 s: two compiles of the solve (reverse and forward mode)
 def test_reverse_mode_replays_no_step():
     """Reverse mode through a state sample at 2.5 ms, over ~800 steps in segments of up to 128:
     with diffrax's default checkpointing (about 15 checkpoints for 128 steps) its reverse pass

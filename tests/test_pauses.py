@@ -32,7 +32,9 @@ def test_pauses_leave_the_solution_unchanged_to_the_last_bit():
             np.testing.assert_allclose(metric(paused), metric(plain), rtol=1e-14, err_msg=name)
 
 
-@pytest.mark.parametrize("segment_steps", [None, 8])
+@pytest.mark.parametrize(
+    "segment_steps", [pytest.param(None, marks=pytest.mark.slow), 8]  # 8: a sweep's segments
+)
 def test_vmapped_members_equal_single_runs_to_the_last_bit(segment_steps):
     """Under vmap diffrax moves a member without an event to the end of its last attempted step
     when another member stops at one; `simulate` ends such a member at its last accepted step."""
