@@ -116,7 +116,7 @@ class _Setup(NamedTuple):
     solver: diffrax.AbstractSolver  # the user's solver (its interpolation closes the stats)
     controller: diffrax.AbstractStepSizeController
     event: diffrax.Event | None
-    max_steps: int
+    max_steps: jax.Array  # int: steps a segment may take, its pauses together
     segment_steps: int  # steps after which a segment pauses (its dense output's rows)
     block: int  # output times evaluated and written together
     progress: str | None

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 
 import diffrax
 import equinox as eqx
@@ -118,12 +119,13 @@ def simulate(
         ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points).
         solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
             stiff solver.
-        rtol, atol: error control of the PID step-size controller (state in m, rad, m/s).
+        rtol, atol: error control of the PID step-size controller (state in m, rad, m/s);
+            values of the compiled solve, like ``max_steps``: other values compile nothing.
         stepsize_controller: overrides the default `PIDController(rtol, atol, pcoeff=0.3,
             icoeff=0.3)` (the PI terms reject fewer steps than a plain I controller on the
             paper's case with impact; README's benchmark table).
         max_steps: step limit of each segment (between events and stops; its pauses count
-            together).
+            together), an integer >= 1.
         max_segments: segments allowed beyond the stops (each contact onset and separation,
             each engagement and release of a paper-force ball, and each pause starts one); the
             run fails if it needs more. Default: `default_max_segments`.
@@ -172,6 +174,8 @@ def simulate(
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     if segment_steps is not None and not 1 <= segment_steps:
         raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
+    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
+        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
     if max_segments is None:
         max_segments = default_max_segments(model, *span, segment_steps)
     segment_steps = min(SEGMENT_STEPS if segment_steps is None else int(segment_steps), max_steps)
@@ -186,6 +190,7 @@ def simulate(
     output_block = min(int(output_block), ts.shape[0])
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
+        rtol, atol = _checked_tolerances(rtol, atol)
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
     solver = _with_root_tolerances(solver, stepsize_controller)
     stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
@@ -199,7 +204,7 @@ def simulate(
         ts,
         solver,
         stepsize_controller,
-        max_steps,
+        jnp.asarray(max_steps),  # an array, like rtol and atol: another value compiles nothing
         max_segments,
         segment_steps,
         time_cells,
@@ -278,6 +283,19 @@ def _checked_span(t0, t1):
         return t0, t1
     finite = jnp.isfinite(t0) & jnp.isfinite(t1)
     return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
+
+
+def _checked_tolerances(rtol, atol):
+    """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
+    `ValueError` now if they are concrete and not finite, negative, or both zero."""
+    rtol, atol = jnp.asarray(rtol, jnp.float64), jnp.asarray(atol, jnp.float64)
+    if is_concrete(rtol, atol):
+        for name, x in (("rtol", rtol), ("atol", atol)):
+            if x.ndim or not (jnp.isfinite(x) and x >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
+        if not rtol + atol > 0:
+            raise ValueError("rtol and atol must not both be zero: the step control needs one.")
+    return rtol, atol
 
 
 def _checked_ts(ts, t0, t1):
