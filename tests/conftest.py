@@ -1,21 +1,63 @@
+import time
+
 import jax
 import pytest
 
 jax.config.update("jax_enable_x64", True)
 
-# Modules whose tests share module-scoped fixtures (a simulation, a command-line run, the sweep
-# subprocesses) or compiled solves: each runs on one pytest-xdist worker (`--dist loadgroup` in
-# pyproject.toml), so that the other worker does not compute them again. They are handed out
-# first, so that neither worker ends alone on a whole module; the other tests follow one by one.
-SHARED = {
-    "test_cli", "test_hertz", "test_impact", "test_life", "test_metrics_exact", "test_multibody",
-    "test_rotor_metrics", "test_sweep", "test_transforms", "test_windows", "test_xu2014",
+# The suite's time is mostly compilation: each distinct static configuration of `simulate` (the
+# model's structure, the number of output times, the segment slots that the span sets, the
+# options; not rtol, atol, max_steps or parameter values) compiles the solve anew, in each
+# pytest-xdist worker that meets it. So tests that share a compiled solve or a module-scoped
+# fixture (a simulation, a command-line run, the sweep's subprocesses) run on one worker
+# (`--dist loadgroup` in pyproject.toml), and these groups are handed out first, so that neither
+# worker ends alone on a whole group; the other tests follow one by one.
+SHARED = {  # modules, each a group
+    "test_cli", "test_compile", "test_hertz", "test_impact", "test_life", "test_metrics_exact",
+    "test_multibody", "test_pauses", "test_rotor_metrics", "test_sweep", "test_transforms",
+    "test_validation", "test_windows", "test_xu2014",
 }
+COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
+    # the paper's case without impact, 0-0.02 s, 201 output times, default options
+    "free_0.02s": (
+        "test_derivatives.py::test_sensitivities_without_impact[paper]",
+        "test_pauses.py::test_a_failed_run_keeps_the_outputs_it_reached",
+        "test_scipy_baseline.py::test_no_impact_start_agrees",
+    ),
+}
+_GROUP_OF = {test: group for group, tests in COMPILE_GROUPS.items() for test in tests}
+# the longest tests (README, *Tests*), handed out before all others: a worker that starts one
+# last would run on alone, and under .ci/run's --start-before it would not start at all
+LONGEST = ("test_derivatives.py::test_derivatives_with_impact",)
+
+
+def _group(item):
+    test = item.nodeid.rsplit("/", 1)[-1]
+    return _GROUP_OF.get(test, item.module.__name__ if item.module.__name__ in SHARED else None)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the marks
 def pytest_collection_modifyitems(items):
     for item in items:
-        if item.module.__name__ in SHARED:
-            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
-    items.sort(key=lambda item: item.module.__name__ not in SHARED)  # stable: file order kept
+        if _group(item):
+            item.add_marker(pytest.mark.xdist_group(_group(item)))
+    items.sort(key=lambda item: (not _longest(item), _group(item) is None))  # stable sort
+
+
+def _longest(item):
+    return item.nodeid.rsplit("/", 1)[-1].startswith(LONGEST)
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--start-before", type=float, default=None, metavar="UNIX_TIME",
+        help="start no test after this time (seconds since the epoch): later ones are skipped, "
+        "each named in the summary. .ci/run's time budget for the slow tests.",
+    )
+
+
+@pytest.hookimpl(tryfirst=True)  # before the test's fixtures are set up
+def pytest_runtest_setup(item):
+    deadline = item.config.getoption("--start-before")
+    if deadline is not None and time.time() > deadline:
+        pytest.skip(f"{item.nodeid} not started: the time budget of --start-before was spent")

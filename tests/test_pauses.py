@@ -57,7 +57,8 @@ def test_vmapped_members_equal_single_runs_to_the_last_bit(segment_steps):
 def test_a_paused_segment_keeps_its_step_limit():
     """max_steps bounds a segment's steps over all its pauses: the run fails, it does not go on."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
-    assert int(jb.simulate(model, 0.01, ts, time_cells=1).num_steps) > 40
+    # pausing every 40 steps: the compiled solve that the python-span test below runs as well
+    assert int(jb.simulate(model, 0.01, ts, segment_steps=40, time_cells=1).num_steps) > 40
     for k in (None, 8):
         sol = jb.simulate(model, 0.01, ts, segment_steps=k, max_steps=40, time_cells=1, throw=False)
         assert sol.result == jb.RESULTS.max_steps_reached
@@ -70,8 +71,8 @@ def test_a_failed_run_keeps_the_outputs_it_reached():
     t_final as a run with enough segments computes them (the same segments up to there), and
     NaN after; the block of output times it was filling when it stopped included."""
     model, ts = jb.cases.xu2014(impact=False), jnp.linspace(0.0, 0.02, 201)
-    full = jb.simulate(model, 0.02, ts, time_cells=4)
-    cut = jb.simulate(model, 0.02, ts, time_cells=4, max_segments=2, throw=False)
+    full = jb.simulate(model, 0.02, ts)  # the compiled solve of tests/conftest.py's "free_0.02s"
+    cut = jb.simulate(model, 0.02, ts, max_segments=2, throw=False)
     assert cut.result == jb.RESULTS.max_segments_reached
     reached = np.asarray(ts) < float(cut.t_final)
     assert 0 < reached.sum() < ts.shape[0]
@@ -95,9 +96,10 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
     slots for 0.2 s, each a zero-length solve in a single run)."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
     slots = lambda sol: sol.segments.t_start.shape[0]  # noqa: E731
-    plain = jb.simulate(model, 0.01, ts)
-    traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts))
-    assert slots(traced) == slots(plain) < jb.default_max_segments(model, 0.0, 1.0)
+    kw = dict(segment_steps=40, time_cells=1)  # the first solve of the step-limit test
+    plain = jb.simulate(model, 0.01, ts, **kw)
+    traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts, **kw))
+    assert slots(traced) == slots(plain) < jb.default_max_segments(model, 0.0, 1.0, 40)
 
 
 def test_segment_steps_must_be_positive():
