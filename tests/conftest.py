@@ -31,21 +31,26 @@ _GROUP_OF = {test: group for group, tests in COMPILE_GROUPS.items() for test in 
 LONGEST = ("test_derivatives.py::test_derivatives_with_impact",)
 
 
+def _test(item) -> str:
+    """``module.py::test[param]``, the form of COMPILE_GROUPS and LONGEST."""
+    return item.nodeid.rsplit("/", 1)[-1]
+
+
 def _group(item):
-    test = item.nodeid.rsplit("/", 1)[-1]
-    return _GROUP_OF.get(test, item.module.__name__ if item.module.__name__ in SHARED else None)
+    module = item.module.__name__
+    return _GROUP_OF.get(_test(item), module if module in SHARED else None)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the marks
 def pytest_collection_modifyitems(items):
+    grouped = set()
     for item in items:
-        if _group(item):
-            item.add_marker(pytest.mark.xdist_group(_group(item)))
-    items.sort(key=lambda item: (not _longest(item), _group(item) is None))  # stable sort
-
-
-def _longest(item):
-    return item.nodeid.rsplit("/", 1)[-1].startswith(LONGEST)
+        group = _group(item)
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
+            grouped.add(item.nodeid)
+    # stable sort: the longest tests, then the groups, then the others, each in file order
+    items.sort(key=lambda item: (not _test(item).startswith(LONGEST), item.nodeid not in grouped))
 
 
 def pytest_addoption(parser):
