@@ -203,7 +203,7 @@ def _run_case(args, model, ts, label):
     wall_second = None
     if not args.no_rerun:
         start = time.perf_counter()
-        with contextlib.redirect_stderr(io.StringIO()):  # same label: no recompile, no bar
+        with contextlib.redirect_stderr(io.StringIO()):  # compiled already; the bar hidden
             solve(label)
         wall_second = time.perf_counter() - start
     s = report.summarize(sol, report.PEAK_FROM)

@@ -6,6 +6,7 @@ top-level jax.jit"), and GPU builds refuse XLA:CPU's options ("No such compile o
 `simulate` must keep working inside a user's jit, vmap and grad, and on every backend.
 """
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -63,6 +64,31 @@ def test_tolerances_and_step_limit_compile_nothing_new():
     assert "jit(_simulate)" not in compiles
     assert int(tight.num_steps) > int(loose.num_steps)
     np.testing.assert_allclose(tight.q, loose.q, rtol=0, atol=2e-8)
+
+
+def test_fewer_output_times_compile_nothing_new():
+    """Called at the top level, up to 2048 output times share one compiled solve, that of the
+    tests above: outputs at the times two runs share are the same to the last bit, and every
+    per-time field has one row per output time asked for."""
+    model = jb.cases.xu2014(impact=False)
+    ts = jnp.linspace(0.0, 0.002, 21)
+    few = jb.simulate(model, 0.002, ts[::10], time_cells=1)
+    compiles = []
+    listener = lambda event, duration, **kw: compiles.append(kw.get("fun_name"))  # noqa: E731
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        many = jb.simulate(model, 0.002, ts, time_cells=1)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert "jit(_simulate)" not in compiles
+    per_time = [
+        f.name for f in dataclasses.fields(many)
+        if isinstance(getattr(many, f.name), jax.Array) and getattr(many, f.name).ndim >= 1
+    ]
+    assert {"ts", "q", "qdd", "ball_loads", "contact_force", "drift"} <= set(per_time)
+    for name in per_time:
+        assert getattr(many, name).shape[0] == 21, name
+        np.testing.assert_array_equal(getattr(few, name), getattr(many, name)[::10], err_msg=name)
 
 
 def test_cpu_options_go_to_the_cpu_only():

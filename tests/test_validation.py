@@ -152,6 +152,8 @@ BAD_INPUTS = [
      r"max_steps must be an integer of at least 1; got 0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, max_steps=1e5),
      r"max_steps must be an integer of at least 1; got 100000\.0\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, progress=True),
+     r"progress must be a label \(str\) or None; got True\."),
     # non-finite values: at construction, and set later by eqx.tree_at (an optimiser's step)
     (lambda: bearing(stiffness=np.nan), r"BallBearing\.stiffness must be finite \(not NaN or infinite\); got nan\."),
     (lambda: Body(np.inf, 1.0), r"Body\.mass must be finite \(not NaN or infinite\); got inf\."),

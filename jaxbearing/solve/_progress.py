@@ -1,4 +1,7 @@
-"""The progress bar of a solve: one tqdm bar per label over the whole span, across segments."""
+"""The progress bar of a solve: one tqdm bar per label over the whole span, across segments.
+
+The label enters the compiled solve as an integer key (`label_key`), a value like the span, so
+that a run under another label compiles nothing."""
 
 from __future__ import annotations
 
@@ -23,7 +26,7 @@ class _Progress(diffrax.AbstractProgressMeter):
     t_stop: jax.Array
     t0: jax.Array
     t1: jax.Array
-    label: str = eqx.field(static=True)
+    label: jax.Array  # int, the label's `label_key`
     every: float = eqx.field(static=True, default=0.02)
 
     def _fraction(self, progress):
@@ -55,16 +58,24 @@ class _Progress(diffrax.AbstractProgressMeter):
         return None
 
 
+_LABELS: list = []  # the labels seen in this process; a label's key is its index
 _BARS: dict = {}  # label -> the tqdm bar of the run in progress under that label
 
 
-def _advance(label, fraction, span):
-    """Host side of `_Progress`: fraction 0 opens a bar for ``label`` (closing an older one),
-    a larger fraction moves it forward, 1 closes it. The bar counts simulated seconds of the
-    span [s]."""
+def label_key(label: str) -> jax.Array:
+    """The integer key that stands for ``label`` in the compiled solve."""
+    if label not in _LABELS:
+        _LABELS.append(label)
+    return jnp.asarray(_LABELS.index(label))
+
+
+def _advance(key, fraction, span):
+    """Host side of `_Progress`: fraction 0 opens a bar for the label of ``key`` (closing an
+    older one), a larger fraction moves it forward, 1 closes it. The bar counts simulated
+    seconds of the span [s]."""
     from tqdm.auto import tqdm
 
-    fraction, span = float(fraction), float(span)
+    label, fraction, span = _LABELS[int(key)], float(fraction), float(span)
     bar = _BARS.get(label)
     if bar is None or fraction == 0.0:
         if bar is not None:  # a run that did not finish (an error, or a backward pass)

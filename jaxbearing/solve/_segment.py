@@ -119,7 +119,7 @@ class _Setup(NamedTuple):
     max_steps: jax.Array  # int: steps a segment may take, its pauses together
     segment_steps: int  # steps after which a segment pauses (its dense output's rows)
     block: int  # output times evaluated and written together
-    progress: str | None
+    progress: jax.Array | None  # the progress label's key (`_progress.label_key`), or None
     adjoint: diffrax.AbstractAdjoint
 
 

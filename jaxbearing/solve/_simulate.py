@@ -40,7 +40,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from .._forms import output_forms
-from ..compile import jit
+from ..compile import jit, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -51,6 +51,7 @@ from ..solution import (
     SimulationError,
     Solution,
 )
+from ._progress import label_key
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
@@ -67,6 +68,7 @@ from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 OUTPUT_BATCH = 2048  # output times evaluated together (forces, accelerations) after the solve
+OUTPUT_BUCKET = 2048  # fewer output times share one compiled solve of this many (`_bucketed`)
 SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
 EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
 STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
@@ -116,7 +118,9 @@ def simulate(
     Args:
         model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
         t1: final time [s], finite, > t0.
-        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points).
+        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points). Called
+            outside any transformation, up to `OUTPUT_BUCKET` of them share one compiled solve
+            (`_bucketed`).
         solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
             stiff solver.
         rtol, atol: error control of the PID step-size controller (state in m, rad, m/s);
@@ -154,7 +158,8 @@ def simulate(
             the life functions refuse the solution.
         throw: raise `SimulationError` (or an equinox runtime error under transformations) on
             failure; with False, inspect ``sol.result`` and ``sol.t_final``.
-        progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None.
+        progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None. Another
+            label compiles nothing.
         adjoint: how diffrax differentiates each segment. The default (None) is
             `diffrax.RecursiveCheckpointAdjoint` storing every step of a segment
             (``checkpoints=segment_steps``, also given to one without ``checkpoints``:
@@ -172,6 +177,8 @@ def simulate(
     span = (t0, t1)  # as given: Python numbers stay concrete under the caller's jit
     t0, t1 = _checked_span(t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
+    n_out = ts.shape[0]
+    ts = _bucketed(ts)
     if segment_steps is not None and not 1 <= segment_steps:
         raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
@@ -188,6 +195,8 @@ def simulate(
     if not 1 <= output_block:
         raise ValueError(f"output_block must be at least 1; got {output_block}.")
     output_block = min(int(output_block), ts.shape[0])
+    if progress is not None and not isinstance(progress, str):
+        raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         rtol, atol = _checked_tolerances(rtol, atol)
@@ -211,11 +220,38 @@ def simulate(
         stops,
         output_block,
         bool(fatigue),
-        progress,
+        None if progress is None else label_key(progress),
     )
     if throw:
         sol = _raise_on_failure(sol, t1)
-    return sol
+    return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
+
+
+def _bucketed(ts):
+    """``ts`` padded with copies of its last time to `OUTPUT_BUCKET` times where it has fewer and
+    `simulate` compiles its own solve (called outside any transformation: then only the number
+    of output times is part of the compiled solve, not their values), so that runs with up to
+    that many output times share one compiled solve; else ``ts``. Each output time's values come
+    from the interpolant of the step that covers it, so the padding changes none of them."""
+    n = ts.shape[0]
+    if n >= OUTPUT_BUCKET or not trace_state_clean():
+        return ts
+    return jnp.concatenate([ts, jnp.broadcast_to(ts[-1], (OUTPUT_BUCKET - n,))])
+
+
+_PER_TIME = (
+    "ts", "q", "qd", "qdd", "ball_loads", "bearing_force", "cage_angle", "contact_force",
+    "penetration", "approach_speed", "drift",
+)
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _first_rows(sol: Solution, n: int) -> Solution:
+    """``sol`` with its per-time fields cut to the first ``n`` output times (`_bucketed`)."""
+    fields = [f for f in _PER_TIME if getattr(sol, f) is not None]
+    return eqx.tree_at(
+        lambda s: [getattr(s, f) for f in fields], sol, [getattr(sol, f)[:n] for f in fields]
+    )
 
 
 def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = None) -> int:
