@@ -201,8 +201,12 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         return self.solver.func(terms, t0, y0, args)
 
 
+@eqx.filter_jit
 def _close(model, solver, last, t_end, args, fatigue):
-    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]."""
+    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]. A jit of its own
+    inside the solve's: diffrax traces a step several times (for the shapes of its state, then
+    in its loop) and the segment closes its last step once more, and JAX traces this once for
+    all of them (the compiled program is the same)."""
     t_a, t_b, dense = last
     interpolation = solver.interpolation_cls(t0=t_a, t1=t_b, **dense)
     return _step_stats(model, interpolation, t_a, t_end, args, fatigue)

@@ -498,6 +498,7 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
     batch = min(batch, T)
     index = jnp.arange(batch)
 
+    @jax.jit  # traced once for both the shapes below and the loop
     def evaluate(start):
         t = jax.lax.dynamic_slice_in_dim(ts, start, batch)
         reached = start + index < written
@@ -509,11 +510,11 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
         values = jax.vmap(at)(t, *row)
         return jax.tree_util.tree_map(lambda x: _where_rows(reached, x, jnp.nan), values)
 
-    shapes = jax.eval_shape(evaluate, 0)
+    shapes = jax.eval_shape(evaluate, jax.ShapeDtypeStruct((), jnp.int32))
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
 
     def body(i, outputs):
-        start = jnp.minimum(i * batch, T - batch)
+        start = jnp.minimum(i * batch, T - batch).astype(jnp.int32)
         put = lambda buffer, x: jax.lax.dynamic_update_slice_in_dim(buffer, x, start, 0)
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
