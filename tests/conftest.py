@@ -1,3 +1,4 @@
+import contextlib
 import time
 
 import jax
@@ -66,3 +67,21 @@ def pytest_runtest_setup(item):
     deadline = item.config.getoption("--start-before")
     if deadline is not None and time.time() > deadline:
         pytest.skip(f"{item.nodeid} not started: the time budget of --start-before was spent")
+
+
+@pytest.fixture
+def compiled_functions():
+    """A context manager that gives the list of the functions JAX traces or compiles while it is
+    open (their ``fun_name`` in JAX's monitoring events, e.g. ``"jit(_simulate)"``)."""
+
+    @contextlib.contextmanager
+    def collect():
+        names = []
+        listener = lambda event, duration, **kw: names.append(kw.get("fun_name"))  # noqa: E731
+        jax.monitoring.register_event_duration_secs_listener(listener)
+        try:
+            yield names
+        finally:
+            jax.monitoring.unregister_event_duration_listener(listener)
+
+    return collect

@@ -47,39 +47,29 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
     np.testing.assert_allclose(nested.q, top.q, rtol=0, atol=2e-8)
 
 
-def test_tolerances_and_step_limit_compile_nothing_new():
+def test_tolerances_and_step_limit_compile_nothing_new(compiled_functions):
     """rtol, atol and max_steps are values of the compiled solve: another value runs the solve
     of the test above (the same module's worker, tests/conftest.py) without compiling it again,
     and tighter tolerances take more steps."""
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 3)
-    compiles = []
-    listener = lambda event, duration, **kw: compiles.append(kw.get("fun_name"))  # noqa: E731
     loose = jb.simulate(model, 0.002, ts, time_cells=1)
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
+    with compiled_functions() as compiles:
         tight = jb.simulate(model, 0.002, ts, time_cells=1, rtol=1e-10, atol=1e-12, max_steps=7_000)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
     assert "jit(_simulate)" not in compiles
     assert int(tight.num_steps) > int(loose.num_steps)
     np.testing.assert_allclose(tight.q, loose.q, rtol=0, atol=2e-8)
 
 
-def test_fewer_output_times_compile_nothing_new():
+def test_fewer_output_times_compile_nothing_new(compiled_functions):
     """Called at the top level, up to 2048 output times share one compiled solve, that of the
     tests above: outputs at the times two runs share are the same to the last bit, and every
     per-time field has one row per output time asked for."""
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 21)
     few = jb.simulate(model, 0.002, ts[::10], time_cells=1)
-    compiles = []
-    listener = lambda event, duration, **kw: compiles.append(kw.get("fun_name"))  # noqa: E731
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
+    with compiled_functions() as compiles:
         many = jb.simulate(model, 0.002, ts, time_cells=1)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
     assert "jit(_simulate)" not in compiles
     per_time = [
         f.name for f in dataclasses.fields(many)

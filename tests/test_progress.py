@@ -48,19 +48,14 @@ def test_one_bar_per_run_across_segments(capsys, reports):
     assert not simulate_module._BARS  # closed at t1
 
 
-def test_another_label_compiles_nothing(capsys):
+def test_another_label_compiles_nothing(capsys, compiled_functions):
     """The label is a value of the compiled solve: the run of the test above under another label
     (the same module's worker, tests/conftest.py) shows that label's bar without compiling."""
     model = jb.cases.xu2014(impact=False)
     jax.block_until_ready(jb.simulate(model, 0.005, progress="short run"))  # compiled here
     capsys.readouterr()
-    compiles = []
-    listener = lambda event, duration, **kw: compiles.append(kw.get("fun_name"))  # noqa: E731
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
+    with compiled_functions() as compiles:
         jax.block_until_ready(jb.simulate(model, 0.005, progress="another label"))
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
     assert "jit(_simulate)" not in compiles
     _, err = capsys.readouterr()
     [line] = bars(err, "another label")
