@@ -1,13 +1,17 @@
-"""Trace one short simulation of the paper's case on JAX's default device (jax.profiler) and
-count the device kernels it launches per solver step.
+"""Trace short runs of the paper's case on JAX's default device (jax.profiler): one simulation,
+and optionally sweeps of several batch sizes; count the device kernels and sum their times.
 
-    python benchmarks/gpu_profile.py OUT_DIR [t1]
+    python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096]
 
-Writes the trace under ``OUT_DIR/trace`` and prints steps, kernels and kernels per step (device
-lines of the trace: the GPU's streams; on the CPU nothing is counted).
+Writes the traces under ``OUT_DIR`` and prints, for each run, the wall time of a call after
+compilation (untraced), then from a traced call: the device kernels (events on the GPU's stream
+lines; on the CPU nothing is counted), the time they kept the device busy, and the kernels that
+took the most of it. For the single run also steps and kernels a step.
 """
 
-import sys
+import argparse
+import collections
+import time
 from pathlib import Path
 
 import jax
@@ -17,44 +21,79 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
+from jaxbearing._sweep import SEGMENT_STEPS  # noqa: E402
+
+TOP = 12  # kernels listed by device time
 
 
-def kernel_count(trace_dir) -> int:
-    """Events on the device lines (``/device:GPU:*`` planes) of the newest trace in ``trace_dir``."""
+def _device_events(trace_dir):
+    """(name, duration [ns]) of every event on the device stream lines of the newest trace."""
     path = max(Path(trace_dir).rglob("*.xplane.pb"), key=lambda p: p.stat().st_mtime)
     data = jax.profiler.ProfileData.from_file(str(path))
-    return sum(
-        1
+    return [
+        (event.name, event.duration_ns)
         for plane in data.planes
         if plane.name.startswith("/device:GPU")
         for line in plane.lines
         if "Stream" in line.name
-        for _ in line.events
-    )
+        for event in line.events
+    ]
 
 
-def _print_lines(trace_dir):
-    """Every device plane's lines with their event counts (what the count above is made of)."""
-    path = max(Path(trace_dir).rglob("*.xplane.pb"), key=lambda p: p.stat().st_mtime)
-    for plane in jax.profiler.ProfileData.from_file(str(path)).planes:
-        if plane.name.startswith("/device"):
-            for line in plane.lines:
-                print(f"  {plane.name} | {line.name}: {sum(1 for _ in line.events)} events")
+def kernel_count(trace_dir) -> int:
+    """Events on the device stream lines of the newest trace in ``trace_dir``."""
+    return len(_device_events(trace_dir))
 
 
-def main(out, t1=0.05):
+def _profiled(run, trace_dir):
+    """Wall time [s] of ``run()`` after a compiling call, and the device events of a traced call."""
+    jax.block_until_ready(run())
+    start = time.perf_counter()
+    result = jax.block_until_ready(run())
+    wall = time.perf_counter() - start
+    with jax.profiler.trace(str(trace_dir)):
+        jax.block_until_ready(run())
+    return wall, result, _device_events(trace_dir)
+
+
+def _summary(events, wall):
+    busy = sum(d for _, d in events) * 1e-9
+    print(f"  {len(events)} kernels, device busy {busy:.3f} s of {wall:.3f} s untraced wall")
+    by_name = collections.defaultdict(lambda: [0, 0.0])
+    for name, d in events:
+        by_name[name][0] += 1
+        by_name[name][1] += d * 1e-9
+    for name, (count, total) in sorted(by_name.items(), key=lambda kv: -kv[1][1])[:TOP]:
+        print(f"    {total:8.3f} s {count:8d} x {1e6 * total / count:9.1f} us  {name[:90]}")
+
+
+def main(out, t1, sweeps):
     model = jb.cases.xu2014(impact=True)
     ts = np.array([0.0, t1])
-    sol = jax.block_until_ready(jb.simulate(model, t1, ts))  # compile
-    trace = Path(out) / "trace"
-    with jax.profiler.trace(str(trace)):
-        sol = jax.block_until_ready(jb.simulate(model, t1, ts))
+    wall, sol, events = _profiled(lambda: jb.simulate(model, t1, ts), Path(out) / "single")
     steps = int(sol.num_steps) + int(sol.num_rejected_steps)
-    kernels = kernel_count(trace)
-    _print_lines(trace)
-    print(f"device {jax.devices()[0].device_kind}: {steps} steps (accepted and rejected), {kernels} kernels, "
-          f"{kernels / steps:.0f} kernels a step")
+    print(f"device {jax.devices()[0].device_kind}, one simulation of {t1} s: {wall:.3f} s untraced, {steps} steps "
+          f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
+    _summary(events, wall)
+    # the segment slots of a full 0.2 s sweep, so that a shorter span keeps its loop structure
+    max_segments = jb.solve.default_max_segments(model, 0.0, 0.2, SEGMENT_STEPS)
+    for points in sweeps:
+        n = int(round(points**0.5))
+        grid = {"bearing.clearance": np.linspace(20e-6, 80e-6, n), "impact.restitution": np.linspace(0.5, 0.95, n)}
+        run = lambda: jb.sweep(  # noqa: E731
+            model, grid, t1=t1, progress=False, chunk_size=n * n, max_segments=max_segments
+        )
+        start = time.perf_counter()
+        wall, ds, events = _profiled(run, Path(out) / f"sweep{n * n}")
+        print(f"sweep of {n * n} points, {t1} s: {wall:.3f} s untraced = {n * n / wall:.0f} simulations/s "
+              f"({time.perf_counter() - start:.0f} s with compile and trace), {int(ds.failed.sum())} failed")
+        _summary(events, wall)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], *(float(a) for a in sys.argv[2:]))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out")
+    parser.add_argument("t1", nargs="?", type=float, default=0.05)
+    parser.add_argument("--sweep", default="", help="comma-separated sweep sizes (points in one chunk)")
+    args = parser.parse_args()
+    main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s])
