@@ -109,7 +109,7 @@ def test_no_impact_start_agrees():
 @pytest.mark.slow
 def test_impact_run_agrees():
     """0–0.1 s with impact, both at rtol 1e-11, atol 1e-13: the six contacts of the first
-    revolution, located by solve_ivp's events and by jaxbearing's bisection. Measured over
+    revolution, located by solve_ivp's events and by jaxbearing's root finder. Measured over
     0–0.2 s: positions 1.8e-11 m, ball loads 8e-4 N, onset times 3e-11 s, approach speeds
     5e-8 m/s apart; bounds 10-100x above those."""
     ts = np.linspace(0.0, 0.1, 1001)
