@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
 from jaxbearing._sweep import SEGMENT_STEPS  # noqa: E402
+from run import SWEEP_CLEARANCES, SWEEP_RESTITUTIONS, T1  # noqa: E402  (the benchmark's grid and span)
 
 TOP = 12  # kernels listed by device time
 
@@ -38,11 +39,6 @@ def _device_events(trace_dir):
         if "Stream" in line.name
         for event in line.events
     ]
-
-
-def kernel_count(trace_dir) -> int:
-    """Events on the device stream lines of the newest trace in ``trace_dir``."""
-    return len(_device_events(trace_dir))
 
 
 def _profiled(run, trace_dir):
@@ -75,11 +71,14 @@ def main(out, t1, sweeps):
     print(f"device {jax.devices()[0].device_kind}, one simulation of {t1} s: {wall:.3f} s untraced, {steps} steps "
           f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
     _summary(events, wall)
-    # the segment slots of a full 0.2 s sweep, so that a shorter span keeps its loop structure
-    max_segments = jb.solve.default_max_segments(model, 0.0, 0.2, SEGMENT_STEPS)
+    # the segment slots of the benchmark's full-span sweep, so that a shorter span keeps its loops
+    max_segments = jb.solve.default_max_segments(model, 0.0, T1, SEGMENT_STEPS)
     for points in sweeps:
         n = int(round(points**0.5))
-        grid = {"bearing.clearance": np.linspace(20e-6, 80e-6, n), "impact.restitution": np.linspace(0.5, 0.95, n)}
+        grid = {
+            "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, n),
+            "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, n),
+        }
         run = lambda: jb.sweep(  # noqa: E731
             model, grid, t1=t1, progress=False, chunk_size=n * n, max_segments=max_segments
         )

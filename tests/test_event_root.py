@@ -65,7 +65,7 @@ def test_derivative_of_the_event_time_is_the_implicit_one():
 
 def test_vmapped_members_equal_single_solves_to_the_last_bit():
     # a batch as diffrax root-finds it: members with their own roots and one without an event
-    f = lambda t, p: jnp.where(p > 0.5, ROOT + 2e-5 - t, -jnp.sin(1e5 * (t - p)))  # noqa: E731
+    f = lambda t, p: jnp.where(p > 0.5, ROOT + 2e-5 - t, -1e-6 * jnp.sin(1e5 * (t - p)))  # noqa: E731
     ps = jnp.array([ROOT, ROOT + 3e-6, 0.9, ROOT - 4e-7])
     batch = jax.vmap(lambda p: _solve(f, ROOT - 1e-6, ROOT + 2e-5, p=p).value)(ps)
     alone = [float(_solve(f, ROOT - 1e-6, ROOT + 2e-5, p=p).value) for p in ps]

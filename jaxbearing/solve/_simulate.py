@@ -7,8 +7,8 @@ bracketing root finder on the step's interpolant (`_segment._EventRoot`: robust 
 contacts, where Newton stalls), the time at which a penetration crosses zero (onset) or falls
 below -`SEPARATION_OFFSET` (separation), or a paper-force ball's deflection crosses zero
 (engagement) or falls below -`BALL_RELEASE` (release); the next segment restarts there with
-the approach speed recorded at the onset and the ball switched. Within a segment the right-hand side is smooth, and derivatives
-of the solution include the jump of every switch through the event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
+the approach speed recorded at the onset and the ball switched. Within a segment the right-hand
+side is smooth, and derivatives of the solution include the jump of every switch through the event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
 intervals of [t0, t1], so that the members of a vmapped batch stay aligned in time: a batch runs
 each segment until its slowest member is done, and without the cells a member that has had one
 contact event more than another would integrate an unrelated span beside it . They end as well at
