@@ -3,11 +3,10 @@
 rings).
 
 They are computed from the solution itself, not from its output times: `simulate` records, per
-segment of the solve, the peaks and integrals over every accepted solver step and the step's
-interpolant (`SegmentStats`), and a metric combines the segments inside its window. So a metric
-has the same value whatever ``ts`` the simulation was asked for. A window's edges must be segment
-ends: ``t_min`` = `T_MIN` always is (`simulate` stops there), and `simulate`'s ``window_edges``
-adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
+interval between its stops, the peaks and integrals over every accepted solver step and the
+step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
+metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
+stops: ``t_min`` = `T_MIN` always is, and `simulate`'s ``window_edges`` adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
 cannot be checked in Python, makes the metric NaN.
 
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
@@ -65,7 +64,7 @@ from .solution import (
     Solution,
 )
 
-T_MIN = WINDOW_START  # [s] start of the default window, a segment end of every solve
+T_MIN = WINDOW_START  # [s] start of the default window, a stop of every solve
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,13 +150,14 @@ def _warn_empty_window(t_min, t_max, first, last, *, what):
     warnings.warn(f"{_empty_window(t_min, t_max, first, last, what)}; the metric is NaN.")
 
 
-EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to a segment end counts as that end
+EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts as that end
 
 
-def _segments(sol: Solution, t_min, t_max):
-    """Which segments of ``sol`` lie in [t_min, t_max], and whether both edges are segment ends
-    (or outside the solved span). ValueError when they are not and that is known in Python."""
-    return intervals_inside(sol.segments, t_min, t_max, "segments")
+def _inside(sol: Solution, t_min, t_max):
+    """Which intervals of ``sol.segments`` lie in [t_min, t_max], and whether both edges are
+    stops (or outside the solved span). ValueError when they are not and that is known in
+    Python."""
+    return intervals_inside(sol.segments, t_min, t_max, "stop intervals")
 
 
 def intervals_inside(stats, t_min, t_max, name: str):
@@ -193,16 +193,16 @@ def intervals_inside(stats, t_min, t_max, name: str):
 
 
 def _peak(sol: Solution, column, t_min, t_max):
-    """Max of ``segments.peaks[:, column]`` over the window; NaN if empty or not on segment ends."""
-    inside, ok = _segments(sol, t_min, t_max)
+    """Max of ``segments.peaks[:, column]`` over the window; NaN if empty or not on stops."""
+    inside, ok = _inside(sol, t_min, t_max)
     peak = jnp.max(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
     return jnp.where(ok & jnp.any(inside), peak, jnp.nan)
 
 
 def _integral(sol: Solution, column, t_min, t_max):
     """(integral of ``segments.integrals[:, column]``, duration) over the window [.., s]; NaN
-    duration if the edges are not segment ends."""
-    inside, ok = _segments(sol, t_min, t_max)
+    duration if the edges are not stops."""
+    inside, ok = _inside(sol, t_min, t_max)
     total = jnp.sum(jnp.where(inside[:, None], sol.segments.integrals, 0.0), axis=0)
     return total[column], jnp.where(ok, total[INT_TIME], jnp.nan)
 

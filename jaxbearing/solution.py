@@ -62,27 +62,32 @@ class Contacts(eqx.Module):
 
 
 class SegmentStats(eqx.Module):
-    """Peaks and integrals over each segment of the solve, one slot per segment (padded; read
-    ``valid``), taken from the solution itself: every accepted solver step and its interpolant
-    (`_Recording`), not from the output times. `jaxbearing.metrics` combines them over a window.
+    """Peaks and integrals of the solution over each interval between the solve's stops (t0,
+    `WINDOW_START`, the ends of the time cells, the ``window_edges`` asked for, t1), taken
+    from the solution itself: every accepted solver step and its interpolant (`_Recording`),
+    not from the output times. `jaxbearing.metrics` combines the intervals inside a window, so
+    a window's edges must be stops.
 
     Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
     Gauss–Legendre quadrature over the step; the last step of a segment that ends at an event
-    counts only up to the event. Peaks are therefore the maxima over those points (and the
+    counts only up to the event. Peaks are therefore the maxima over those points (and each
     segment's start): exact there, and low by at most the interpolant's rise between points a
     quarter of a step apart. Integrals are exact for integrands that are polynomials of degree
     <= 5 over each step.
 
-    Fields (S = number of segment slots):
-        t_start, t_end: (S,) [s] of each segment, NaN in unused slots.
-        peaks: (S, 3 + n_coordinates), the maxima over the segment of: the largest ball load of
-            the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N], the
-            normal force of the first impact contact [N], then |q_c - q0_c| of each coordinate
-            [m or rad]; 0 for an element the model lacks. Columns ``PEAK_*``.
-        integrals: (S, 5), the integrals over the segment of: |F|^2 [N^2 s], the sum over balls
+    Fields (C = number of stops; one entry per interval, however many segments it took, so the
+    size does not grow with the events or ``max_segments``):
+        t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
+        peaks: (C, 3 + n_coordinates), the maxima over the interval of: the largest ball load
+            of the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N],
+            the normal force of the first impact contact [N], then |q_c - q0_c| of each
+            coordinate [m or rad]; 0 for an element the model lacks, and in intervals the solve
+            did not reach. Columns ``PEAK_*``.
+        integrals: (C, 5), the integrals over the interval of: |F|^2 [N^2 s], the sum over balls
             of (F_r / FORCE_SCALE)^POWER [s], (|F| / FORCE_SCALE)^POWER [s], (contact force /
-            FORCE_SCALE)^POWER [s], and 1 (the segment's duration) [s]. Columns ``INT_*``.
-        valid: (S,) bool, True where the slot holds a segment.
+            FORCE_SCALE)^POWER [s], and 1 (the interval's solved duration) [s]. Columns
+            ``INT_*``.
+        valid: (C,) bool, True where the interval holds part of the solved span.
     """
 
     t_start: jax.Array
@@ -138,7 +143,7 @@ class Solution(eqx.Module):
         approach_speed: (T, n_contacts) [m/s], approach speed in force at each output time.
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         contacts: `Contacts`, the onsets.
-        segments: `SegmentStats`, peaks and integrals of each segment (what the metrics read).
+        segments: `SegmentStats`, peaks and integrals between the stops (what the metrics read).
         fatigue: `FatigueStats`, what the bearing's life reads (None without a bearing).
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).

@@ -1,7 +1,7 @@
 """Metrics come from the solution, not from the output times (issue 11): `simulate` records per
-segment the peaks and integrals over every accepted step's interpolant (`SegmentStats`), so a
-metric has the same value whatever ``ts`` is, windows need segment ends as edges, and the
-smooth metrics keep exact derivatives."""
+interval between its stops the peaks and integrals over every accepted step's interpolant
+(`SegmentStats`), so a metric has the same value whatever ``ts`` is, windows need stops as
+edges, and the smooth metrics keep exact derivatives."""
 
 import diffrax
 import jax
@@ -38,15 +38,19 @@ def span(sol):
     return float(jnp.sum(jnp.where(s.valid, s.integrals[:, INT_TIME], 0.0)))
 
 
-def test_segments_cover_the_span_exactly(dense):
+def test_intervals_cover_the_span_exactly(dense):
     s = dense.segments
     valid = np.asarray(s.valid)
     starts, ends = np.asarray(s.t_start)[valid], np.asarray(s.t_end)[valid]
     assert starts[0] == 0.0 and ends[-1] == T1
     np.testing.assert_array_equal(starts[1:], ends[:-1])  # contiguous
-    # the last step of a segment that ends at an event counts only up to the event
+    # the steps recorded in each interval tile it: the segments stop at the stops, and the last
+    # step of a segment that ends at an event counts only up to the event
+    duration = np.asarray(s.integrals)[valid, INT_TIME]
+    np.testing.assert_allclose(duration, ends - starts, rtol=1e-12)
     assert span(dense) == pytest.approx(T1, rel=1e-12)
-    assert int(np.sum(valid)) == int(dense.num_segments) > 64  # events as well as cells
+    # one entry per stop (64 time cells; 0.04 s lies beyond T1), however many segments
+    assert int(np.sum(valid)) == 64 < int(dense.num_segments)
 
 
 def test_metrics_agree_with_dense_samples(dense, coarse):
@@ -70,7 +74,7 @@ def test_metrics_agree_with_dense_samples(dense, coarse):
     assert float(M.smooth_peak_ball_load(dense, t_min=0.0)) == pytest.approx(smooth, rel=1e-4)
 
 
-def test_window_edges_must_be_segment_ends(model, coarse):
+def test_window_edges_must_be_stops(model, coarse):
     with pytest.raises(ValueError, match="window_edges"):
         M.rms_bearing_force(coarse, t_min=EDGE)
     # under jit the edge cannot be checked in Python: NaN, never an approximate number

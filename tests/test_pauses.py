@@ -95,7 +95,7 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
     (or `jb.sensitivity`), so the default max_segments is that of the span, not of 1 s (8x the
     slots for 0.2 s, each a zero-length solve in a single run)."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
-    slots = lambda sol: sol.segments.t_start.shape[0]  # noqa: E731
+    slots = lambda sol: sol.contacts.time.shape[0]  # noqa: E731
     kw = dict(segment_steps=40, time_cells=1)  # the first solve of the step-limit test
     plain = jb.simulate(model, 0.01, ts, **kw)
     traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts, **kw))

@@ -153,10 +153,15 @@ def test_time_cells_do_not_change_the_motion(with_impact):
     onset 1.1e-8 s apart at 0.14 m/s)."""
     model = jb.cases.xu2014(impact=True)
     one = jb.simulate(model, 0.2, TS, time_cells=1)
-    # every inner cell end ends a segment (segment counts also hold the pauses, `segment_steps`)
-    ends = np.asarray(with_impact.segments.t_end)[np.asarray(with_impact.segments.valid)]
-    cells = np.linspace(0.0, 0.2, 65)[1:-1]
-    assert np.max(np.min(np.abs(ends[None, :] - cells[:, None]), axis=1)) < 1e-15
+    # segments stop at every cell end (and the default window's start): the recorded
+    # intervals end there, and the steps recorded in each tile it exactly (integral of 1)
+    stats = with_impact.segments
+    valid = np.asarray(stats.valid)
+    start, end = np.asarray(stats.t_start)[valid], np.asarray(stats.t_end)[valid]
+    stops = np.sort(np.append(np.linspace(0.0, 0.2, 65)[1:], jb.solution.WINDOW_START))
+    np.testing.assert_allclose(end, stops, rtol=0, atol=1e-15)
+    duration = np.asarray(stats.integrals)[valid, jb.solution.INT_TIME]
+    np.testing.assert_allclose(duration, end - start, rtol=1e-12)
     xy = [c for c in range(12) if c % 3 != 2]
     np.testing.assert_allclose(np.asarray(with_impact.q[:, xy]), np.asarray(one.q[:, xy]), atol=1e-7)
     valid = np.asarray(one.contacts.valid)

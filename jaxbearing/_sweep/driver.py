@@ -52,7 +52,7 @@ def sweep(
             `life.metric` and functions marked ``sample_free = True`` come from the solve's
             per-step records), else ``linspace(t0, t1, 2001)``.
         out: folder to write to and resume from (see the package doc), or None.
-        chunk_size: points per device per chunk (default `default_chunk_size()`: 16 on CPU, 1024
+        chunk_size: points per device per chunk (default `default_chunk_size()`: 32 on CPU, 1024
             on accelerators; or the layout already in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,

@@ -198,6 +198,8 @@ class _Carry(NamedTuple):
     pending: tuple  # the rows of the block that holds time ``written`` (block, ...): written to
     # ``outputs`` when that block is full (`output_rows` reads the last one here)
     written: jax.Array  # output times evaluated so far: the first ``written`` of ``ts``
+    peaks: jax.Array  # (n_stops, 3 + n) `SegmentStats` peaks of each stop interval so far
+    integrals: jax.Array  # (n_stops, INTEGRALS) `SegmentStats` integrals of each stop interval
     fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
     result: RESULTS
@@ -288,6 +290,8 @@ def initial_carry(s: _Setup, y0, initial_step) -> _Carry:
             jnp.zeros((block, n_balls), bool),
         ),
         written=jnp.asarray(0),
+        peaks=jnp.full((s.stops.shape[0], peak_size(model)), -jnp.inf),
+        integrals=jnp.zeros((s.stops.shape[0], INTEGRALS)),
         fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model, s.recording.fatigue))),
         done=jnp.asarray(False),
         result=RESULTS.successful,
@@ -487,8 +491,8 @@ def _where_rows(rows, x, y):
 
 
 def segment(s: _Setup, c: _Carry, slot):
-    """One slot of the segment loop: (next carry, (onset record, t reached, used, segment
-    stats))."""
+    """One slot of the segment loop: (next carry, (onset record, t reached, used)). The
+    segment's peaks and integrals join those of its stop interval in the carry."""
     # finished members (reached t1, or failed: then t is set to t1 with the stop where it
     # failed) idle in zero-length solves, never backwards from t1 to their stop
     t_stop = jnp.where(c.done, c.t, s.stops[c.cell])
@@ -501,6 +505,7 @@ def segment(s: _Setup, c: _Carry, slot):
     # stats of the segment: its accepted steps, the last one only up to t_end (an event)
     closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
     peaks, integrals, fatigue = _add(stats, closing)
+    peaks = jnp.where(c.done, -jnp.inf, peaks)  # a finished member's idle solve adds nothing
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = _no_onset(c.t)
     if s.event is not None:
@@ -525,6 +530,8 @@ def segment(s: _Setup, c: _Carry, slot):
         outputs=outputs,
         pending=pending,
         written=written,
+        peaks=c.peaks.at[c.cell].set(jnp.maximum(c.peaks[c.cell], peaks)),
+        integrals=c.integrals.at[c.cell].add(jnp.where(c.done, 0.0, integrals)),
         fatigue=c.fatigue.at[c.cell].add(jnp.where(c.done, 0.0, fatigue)),
         done=finished,
         result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
@@ -536,13 +543,7 @@ def segment(s: _Setup, c: _Carry, slot):
         began=began,
         accepted=accepted,
     )
-    stats = (
-        jnp.where(c.done, jnp.nan, c.t),
-        jnp.where(c.done, jnp.nan, t_reached),
-        jnp.where(c.done, 0.0, peaks),
-        jnp.where(c.done, 0.0, integrals),
-    )
-    return carry, record + (t_reached, ~c.done) + stats
+    return carry, record + (t_reached, ~c.done)
 
 
 def slot(s: _Setup, c: _Carry, index):
@@ -551,9 +552,7 @@ def slot(s: _Setup, c: _Carry, index):
     solving, so that the slots a batch leaves unused cost next to nothing."""
 
     def idle(c, index):
-        nan = jnp.full((), jnp.nan, c.t.dtype)
-        stats = (nan, nan, jnp.zeros(peak_size(s.model), c.t.dtype), jnp.zeros(INTEGRALS, c.t.dtype))
-        return c, _no_onset(c.t) + (c.t, jnp.asarray(False)) + stats
+        return c, _no_onset(c.t) + (c.t, jnp.asarray(False))
 
     return jax.lax.cond(_batch_runs(c.done), functools.partial(segment, s), idle, c, index)
 

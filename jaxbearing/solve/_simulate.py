@@ -18,9 +18,11 @@ forward-mode differentiable, vmappable); finished members idle in zero-length so
 vmapped batch the slots left once every member is done branch past the solve (`_segment.slot`).
 A run that needs more segments than that fails loudly.
 
-While it integrates, the solver records per segment the peaks and integrals that
-`jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the step's
-interpolant, so that the metrics do not depend on the output times.
+While it integrates, the solver records the peaks and integrals that `jaxbearing.metrics`
+needs (`SegmentStats`), from every accepted step and the step's interpolant, so that the metrics
+do not depend on the output times; and the bearing life's integrals (`FatigueStats`). Both are
+kept per interval between stops, in the loop's carry, so their size does not grow with the
+number of segments.
 """
 
 from __future__ import annotations
@@ -147,10 +149,10 @@ def simulate(
         time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
             which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
             costs a restart of the solver.
-        window_edges: further times [s] at which segments end, so that `jaxbearing.metrics`
-            can use them as window edges (a metric over a window needs its edges to be segment
-            ends; `WINDOW_START`, the default window's start, always is). A tuple: its length
-            is part of the compiled solve.
+        window_edges: further stops [s] (times at which segments end), so that
+            `jaxbearing.metrics` and `jaxbearing.life` can use them as window edges (a window's
+            edges must be stops; t0, `WINDOW_START`, t1 and the time cells' ends always are). A
+            tuple: its length is part of the compiled solve.
         output_block: output times a segment evaluates from its interpolants and writes
             together; default `default_output_block`. Any value gives the same outputs.
         fatigue: record `Solution.fatigue`, the integrals the bearing's life reads
@@ -401,11 +403,15 @@ def _simulate(
     init = initial_carry(setup, y0, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
     final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
-    onset_t, onset_v, onset_i, onset_valid, t_reached, used, *segment_stats = records
+    onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
+    t_start, t_end, valid = _intervals(setup.stops, t0, t_final)
+    segments = SegmentStats(
+        t_start, t_end, _where_rows(valid, final.peaks, 0.0), final.integrals, valid
+    )
     recorded = model.bearings and fatigue
-    fatigue = _fatigue_stats(final.fatigue, setup.stops, t0, t_final) if recorded else None
+    fatigue = _fatigue_stats(final.fatigue, t_start, t_end, valid) if recorded else None
     return _outputs(
         model,
         ts,
@@ -413,7 +419,7 @@ def _simulate(
         final.written,
         full_rows(final),
         Contacts(onset_t, onset_v, onset_i, onset_valid),
-        SegmentStats(*segment_stats, used),
+        segments,
         fatigue,
         result,
         t_final,
@@ -423,13 +429,19 @@ def _simulate(
     )
 
 
-def _fatigue_stats(integrals, stops, t0, t_final) -> FatigueStats:
-    """`FatigueStats` from the integrals of each stop interval (n_stops, 5 + 2 M)."""
+def _intervals(stops, t0, t_final):
+    """(t_start, t_end, valid) of the intervals between the stops [s], each (n_stops,), cut at
+    the time the solve reached; valid where an interval holds part of the solved span."""
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), t_final)
     t_end = jnp.minimum(stops, t_final)
+    return t_start, t_end, t_end > t_start
+
+
+def _fatigue_stats(integrals, t_start, t_end, valid) -> FatigueStats:
+    """`FatigueStats` from the integrals of each stop interval (n_stops, 5 + 2 M)."""
     m = (integrals.shape[1] - 5) // 2
     inner, outer = integrals[:, 5 : 5 + m], integrals[:, 5 + m :]
-    return FatigueStats(t_start, t_end, integrals[:, :5], inner, outer, t_end > t_start)
+    return FatigueStats(t_start, t_end, integrals[:, :5], inner, outer, valid)
 
 
 def _outputs(
