@@ -1,12 +1,13 @@
 """Trace short runs of the paper's case on JAX's default device (jax.profiler): one simulation,
 and optionally sweeps of several batch sizes; count the device kernels and sum their times.
 
-    python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096]
+    python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096] [--stages-written]
 
 Writes the traces under ``OUT_DIR`` and prints, for each run, the wall time of a call after
 compilation (untraced), then from a traced call: the device kernels (events on the GPU's stream
 lines; on the CPU nothing is counted), the time they kept the device busy, and the kernels that
-took the most of it. For the single run also steps and kernels a step.
+took the most of it. For the single run also steps and kernels a step. ``--stages-written``:
+the same with `WrittenTsit5` instead of diffrax's Tsit5 (docs/performance.md, 2026-11-26).
 """
 
 import argparse
@@ -14,7 +15,11 @@ import collections
 import time
 from pathlib import Path
 
+import diffrax
+import equinox.internal as eqxi
 import jax
+import jax.numpy as jnp
+from diffrax._solver.tsit5 import _tsit5_tableau as TABLEAU
 
 jax.config.update("jax_enable_x64", True)
 
@@ -25,6 +30,29 @@ from jaxbearing._sweep import SEGMENT_STEPS  # noqa: E402
 from run import SWEEP_CLEARANCES, SWEEP_RESTITUTIONS, T1  # noqa: E402  (the benchmark's grid and span)
 
 TOP = 12  # kernels listed by device time
+
+
+class WrittenTsit5(diffrax.Tsit5):
+    """diffrax's Tsit5 with the six stages of a step written out instead of run in diffrax's
+    stage loop (an `eqxi.while_loop`: on a GPU a host round trip each iteration). The same
+    tableau and the same sums over the stage buffer: on the CPU a single run equals diffrax's
+    Tsit5 to the last bit."""
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        first, f0 = solver_state
+        control = terms.contr(t0, t1)
+        f0 = jax.lax.cond(
+            eqxi.unvmap_any(first | made_jump), lambda: terms.vf(t0, y0, args), lambda: f0
+        )
+        ks = jnp.zeros((7,) + y0.shape, y0.dtype).at[0].set(terms.prod(f0, control))
+        for i, (row, c) in enumerate(zip(TABLEAU.a_lower, TABLEAU.c)):
+            weights = jnp.zeros(7, y0.dtype).at[: row.shape[0]].set(row)
+            y = y0 + jnp.tensordot(weights, ks, axes=1)
+            f = terms.vf(t1 if c == 1.0 else t0 + c * (t1 - t0), y, args)
+            ks = ks.at[i + 1].set(terms.prod(f, control))
+        error = jnp.tensordot(jnp.asarray(TABLEAU.b_error, y0.dtype), ks, axes=1)
+        dense = dict(y0=y0, y1=y, k=ks)
+        return y, error, dense, (jnp.asarray(False), f), diffrax.RESULTS.successful
 
 
 def _device_events(trace_dir):
@@ -63,10 +91,10 @@ def _summary(events, wall):
         print(f"    {total:8.3f} s {count:8d} x {1e6 * total / count:9.1f} us  {name[:90]}")
 
 
-def main(out, t1, sweeps):
+def main(out, t1, sweeps, solver=None):
     model = jb.cases.xu2014(impact=True)
     ts = np.array([0.0, t1])
-    wall, sol, events = _profiled(lambda: jb.simulate(model, t1, ts), Path(out) / "single")
+    wall, sol, events = _profiled(lambda: jb.simulate(model, t1, ts, solver=solver), Path(out) / "single")
     steps = int(sol.num_steps) + int(sol.num_rejected_steps)
     print(f"device {jax.devices()[0].device_kind}, one simulation of {t1} s: {wall:.3f} s untraced, {steps} steps "
           f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
@@ -80,7 +108,8 @@ def main(out, t1, sweeps):
             "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, n),
         }
         run = lambda: jb.sweep(  # noqa: E731
-            model, grid, t1=t1, progress=False, chunk_size=n * n, max_segments=max_segments
+            model, grid, t1=t1, progress=False, chunk_size=n * n, max_segments=max_segments,
+            solver=solver,
         )
         start = time.perf_counter()
         wall, ds, events = _profiled(run, Path(out) / f"sweep{n * n}")
@@ -94,5 +123,7 @@ if __name__ == "__main__":
     parser.add_argument("out")
     parser.add_argument("t1", nargs="?", type=float, default=0.05)
     parser.add_argument("--sweep", default="", help="comma-separated sweep sizes (points in one chunk)")
+    parser.add_argument("--stages-written", action="store_true", help="WrittenTsit5 instead of diffrax's Tsit5")
     args = parser.parse_args()
-    main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s])
+    solver = WrittenTsit5() if args.stages_written else None
+    main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s], solver)
