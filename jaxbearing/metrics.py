@@ -6,8 +6,9 @@ They are computed from the solution itself, not from its output times: `simulate
 interval between its stops, the peaks and integrals over every accepted solver step and the
 step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
 metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
-stops: ``t_min`` = `T_MIN` always is, and `simulate`'s ``window_edges`` adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
-cannot be checked in Python, makes the metric NaN.
+stops: ``t_min`` = `T_MIN` always is, and `simulate`'s ``window_edges`` adds others. An edge
+that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in
+Python, makes the metric NaN.
 
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
 differentiation transforms:
