@@ -94,7 +94,8 @@ def _summary(events, wall):
 def main(out, t1, sweeps, solver=None):
     model = jb.cases.xu2014(impact=True)
     ts = np.array([0.0, t1])
-    wall, sol, events = _profiled(lambda: jb.simulate(model, t1, ts, solver=solver), Path(out) / "single")
+    single = lambda: jb.simulate(model, t1, ts, solver=solver)  # noqa: E731
+    wall, sol, events = _profiled(single, Path(out) / "single")
     steps = int(sol.num_steps) + int(sol.num_rejected_steps)
     print(f"device {jax.devices()[0].device_kind}, one simulation of {t1} s: {wall:.3f} s untraced, {steps} steps "
           f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
@@ -123,7 +124,9 @@ if __name__ == "__main__":
     parser.add_argument("out")
     parser.add_argument("t1", nargs="?", type=float, default=0.05)
     parser.add_argument("--sweep", default="", help="comma-separated sweep sizes (points in one chunk)")
-    parser.add_argument("--stages-written", action="store_true", help="WrittenTsit5 instead of diffrax's Tsit5")
+    parser.add_argument(
+        "--stages-written", action="store_true", help="WrittenTsit5 instead of diffrax's Tsit5"
+    )
     args = parser.parse_args()
     solver = WrittenTsit5() if args.stages_written else None
     main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s], solver)

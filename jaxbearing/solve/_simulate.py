@@ -8,10 +8,11 @@ contacts, where Newton stalls), the time at which a penetration crosses zero (on
 below -`SEPARATION_OFFSET` (separation), or a paper-force ball's deflection crosses zero
 (engagement) or falls below -`BALL_RELEASE` (release); the next segment restarts there with
 the approach speed recorded at the onset and the ball switched. Within a segment the right-hand
-side is smooth, and derivatives of the solution include the jump of every switch through the event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
+side is smooth, and derivatives of the solution include the jump of every switch through the
+event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
 intervals of [t0, t1], so that the members of a vmapped batch stay aligned in time: a batch runs
 each segment until its slowest member is done, and without the cells a member that has had one
-contact event more than another would integrate an unrelated span beside it . They end as well at
+contact event more than another would integrate an unrelated span beside it. They end as well at
 `WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
 run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
 forward-mode differentiable, vmappable); finished members idle in zero-length solves, and in a
