@@ -8,11 +8,12 @@ assembly and equations of motion (`multibody`) -> diffrax solve (`solve`) -> out
 jaxbearing computes in float64 and does not switch JAX's global mode for you: call
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 On the CPU, call `enable_loop_kernels()` before the first computation: the solver's loops then
-run as whole functions, much faster (`jaxbearing.compile`).
+run as whole functions, much faster; `enable_entry_elimination()` as well, and the solver solves
+Eq. 36 entry by entry, faster again (`jaxbearing.compile`).
 """
 
 from . import cases, laws, life, metrics, multibody, paths
-from .compile import enable_loop_kernels, jit
+from .compile import enable_entry_elimination, enable_loop_kernels, jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .solution import RESULTS, Contacts, SimulationError, Solution
@@ -39,6 +40,7 @@ __all__ = [
     "cases",
     "default_max_segments",
     "default_solver",
+    "enable_entry_elimination",
     "enable_loop_kernels",
     "jit",
     "kvaerno5",

@@ -1,5 +1,5 @@
-"""Two forms of a few formulas: the ones the solver evaluates, and faster ones for the batched
-evaluation of the outputs.
+"""Two forms of a few formulas: the ones the solver evaluates by default, and faster ones for the
+batched evaluation of the outputs and for the solver with the entry elimination.
 
 XLA:CPU fuses an elementwise producer into every kernel that consumes it unless that would read
 more memory, so in a batched evaluation of the forces cos and sin of each body angle were
@@ -7,8 +7,11 @@ computed again in dozens of kernels; and it evaluates d^1.5 as a general power (
 and a logarithm). Within `output_forms`, `cos_sin` passes its values through an exact reduction,
 (x + x) / 2 as a sum over two copies (a reduction is never repeated), and `power` writes d^1.5 as
 d sqrt(d). `simulate` evaluates its output times so. The solver's own evaluations keep the plain
-forms: the kernels XLA builds from the others round in the last bit differently in a single run
-and in a batch, and a sweep member must equal its single run bit for bit (tests/test_sweep.py).
+forms by default: with XLA:CPU's fused multiply–adds on, the kernels XLA builds from the others
+round in the last bit differently in a single run and in a batch, and a sweep member must equal
+its single run bit for bit (tests/test_sweep.py). With them off
+(`jaxbearing.compile.enable_entry_elimination`) they round alike, and the solver's accelerations
+use these forms with the entry-by-entry elimination.
 """
 
 from __future__ import annotations

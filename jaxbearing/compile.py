@@ -30,6 +30,16 @@ command, the studies and the benchmark do). Other backends ignore it (XLA hands 
 entry of that map to LLVM). Loops that call library routines (the LU factorisation of
 Kvaerno5's Newton iteration) stay as they are.
 
+A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
+instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
+before it is added wherever XLA computes it. With it the solver integrates Eq. 36 with the
+entry-by-entry elimination and the cheaper forms of cos, sin and d^1.5 that the outputs use
+(`entry_elimination`, `jaxbearing._forms`), and a vmapped sweep member still equals its single
+run to the last bit (`jaxbearing.multibody.mechanism` explains why that needs FMA off). It too
+goes through ``XLA_FLAGS`` and affects every XLA:CPU computation of the process. Other backends
+ignore the flag; a simulation compiled for one in such a process still uses the entry form,
+whose equality between sweep members and single runs is then untested.
+
 JAX accepts compiler options on the outermost jit only. `jit` therefore applies them when called
 outside any transformation (`simulate`, `sensitivity`, `tune` and life's ring loads called from
 Python) and compiles plainly when called inside one (your own `jax.jit`, `jax.vmap`,
@@ -57,6 +67,8 @@ except ImportError:  # pragma: no cover
         return True
 
 LOOP_KERNELS_FLAG = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000"
+NO_FMA_FLAG = "--xla_cpu_max_isa=AVX"
+NO_FMA_ISAS = ("SSE4_2", "AVX")  # values of xla_cpu_max_isa whose instruction sets lack FMA
 
 CPU_COMPILER_OPTIONS = {
     "xla_cpu_use_fusion_emitters": False,
@@ -94,12 +106,41 @@ def enable_loop_kernels() -> bool:
     backends yet; False, changing nothing, once they run without it (then set ``XLA_FLAGS``
     before starting Python). Results agree with and without it to the solver's tolerance, not
     to the last bit."""
+    return _append_flag(LOOP_KERNELS_FLAG)
+
+
+def enable_entry_elimination() -> bool:
+    """Turn XLA:CPU's fused multiply–adds off for the process (`NO_FMA_FLAG`), so that the solver
+    integrates with the entry-by-entry elimination of Eq. 36 (module docstring). Returns whether
+    the setting is in effect, like `enable_loop_kernels`; call it before the first computation.
+    Results agree with and without it to the solver's tolerance, not to the last bit."""
+    return _append_flag(NO_FMA_FLAG) and entry_elimination()
+
+
+@functools.cache
+def entry_elimination() -> bool:
+    """Whether the solver uses the entry-by-entry elimination: whether ``XLA_FLAGS`` limits
+    XLA:CPU to an instruction set without FMA (`NO_FMA_ISAS`), read once a process, at the first
+    simulation traced (after JAX has read ``XLA_FLAGS``)."""
+    return fma_off(os.environ.get("XLA_FLAGS", ""))
+
+
+def fma_off(flags: str) -> bool:
+    """Whether the XLA flags ``flags`` limit XLA:CPU to an instruction set without FMA (the
+    last ``--xla_cpu_max_isa`` counts, as in XLA)."""
+    isa = [f.split("=", 1)[1] for f in flags.split() if f.startswith("--xla_cpu_max_isa=")]
+    return bool(isa) and isa[-1].upper() in NO_FMA_ISAS
+
+
+def _append_flag(flag: str) -> bool:
+    """Append ``flag`` to ``XLA_FLAGS`` unless there; False where JAX's backends already run
+    without it (XLA has read the variable), True otherwise."""
     flags = os.environ.get("XLA_FLAGS", "")
-    if LOOP_KERNELS_FLAG in flags.split():
+    if flag in flags.split():
         return True
     if backends_are_initialized():
         return False
-    os.environ["XLA_FLAGS"] = f"{flags} {LOOP_KERNELS_FLAG}".strip()
+    os.environ["XLA_FLAGS"] = f"{flags} {flag}".strip()
     return True
 
 

@@ -160,6 +160,21 @@ def test_loop_kernels_are_refused_once_the_backends_run(monkeypatch):
     assert jb.enable_loop_kernels()
 
 
+def test_entry_elimination_follows_the_last_instruction_set_limit(monkeypatch):
+    """The solver's elimination is chosen by the FMA setting that XLA reads: the last
+    ``--xla_cpu_max_isa`` counts, and only sets without FMA select the entry form; too late to
+    set, like the loop kernels."""
+    assert jbcompile.fma_off(jbcompile.NO_FMA_FLAG)
+    assert jbcompile.fma_off("--xla_cpu_max_isa=sse4_2 --xla_force_host_platform_device_count=2")
+    assert not jbcompile.fma_off("")
+    assert not jbcompile.fma_off("--xla_cpu_max_isa=AVX2")
+    assert not jbcompile.fma_off("--xla_cpu_max_isa=AVX --xla_cpu_max_isa=AVX512")
+    monkeypatch.setenv("XLA_FLAGS", "--xla_force_host_platform_device_count=1")
+    assert not jb.enable_entry_elimination()
+    assert os.environ["XLA_FLAGS"] == "--xla_force_host_platform_device_count=1"
+    assert not jbcompile.entry_elimination()  # this process: the suite runs with FMA
+
+
 _FRESH = """
 import json, sys
 import jax, numpy as np

@@ -10,15 +10,19 @@ entries of Phi_q in closed form.
 
 Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
 - dense (`solve_spd`): matrix products and an unrolled Gauss–Jordan elimination. The solver
-  integrates with it: XLA:CPU rounds it alike in a single run and in a vmapped sweep member, so
-  a member equals the same point run alone to the last bit (tests/test_sweep.py).
+  integrates with it by default: XLA:CPU rounds it alike in a single run and in a vmapped sweep
+  member, so a member equals the same point run alone to the last bit (tests/test_sweep.py).
 - sparse (`solve_spd_entries`, ``accelerations(..., sparse=True)``): S, its LDL^T factors and
   Phi_q^T lambda written out entry by entry on the sparsity of Phi_q, which the joints' types and
-  bodies fix. For the paper's slider–crank it is a few hundred scalar operations, cheaper
-  vmapped over a batch (docs/performance.md); `simulate` evaluates the outputs with it. XLA
-  rounds it differently in single and batched programs (it reassociates the scalar chains of
-  one and not the other), and in the solver that difference would grow into another step
-  sequence, so the solver keeps the dense one; the outputs do not feed back into the solution.
+  bodies fix. For the paper's slider–crank it is a few hundred scalar operations, much cheaper
+  than the dense form; `simulate` evaluates the outputs with it. With XLA:CPU's defaults a
+  single and a vmapped program round it differently: a product of two numbers that a batch
+  shares is computed once for the batch and rounded, where the single run fuses it with the
+  next sum into one fused multiply–add, and a division by a shared number becomes a product
+  with its reciprocal. In the solver that difference grows into another step sequence. With
+  fused multiply–adds off for the process (`jaxbearing.compile.enable_entry_elimination`) and
+  every input of the elimination made a value of the state (`_sparse_accelerations`), the
+  programs round it alike, and the solver integrates with it.
 """
 
 from __future__ import annotations
@@ -248,13 +252,21 @@ class Mechanism(eqx.Module):
 
     def _sparse_accelerations(self, t, q, qd, forces, inverse_mass) -> jax.Array:
         """`accelerations` on the sparsity of Phi_q, for the generalised forces ``forces`` and
-        the diagonal of M^-1 ``inverse_mass``."""
+        the diagonal of M^-1 ``inverse_mass``.
+
+        Every input of the elimination (M^-1, Q_A, the entries of Phi_q, the right-hand side) is
+        multiplied by ``one`` = 1 + 0 q_1, exactly 1 but a value of the state: no program can
+        then fold a product of two parameters at compile time (a model closed over by a jit) or
+        compute it once for a batch (a vmapped sweep) while another computes it per call, and
+        with XLA:CPU's fused multiply–adds off the elimination rounds alike in all of them
+        (module docstring)."""
         n = self.n_coordinates
-        m_inv = [inverse_mass[c] for c in range(n)]
-        f = [forces[c] for c in range(n)]
-        rows = self.constraint_rows(q, t)
+        one = 1.0 + 0.0 * q[0]
+        m_inv = [inverse_mass[c] * one for c in range(n)]
+        f = [forces[c] * one for c in range(n)]
+        rows = [{c: value * one for c, value in row.items()} for row in self.constraint_rows(q, t)]
         phi_dot = jnp.stack([_row_dot(row, qd) for row in rows]) + self._time_derivatives(q, t)
-        rhs = self._stabilised_rhs(q, qd, t, phi_dot)
+        rhs = self._stabilised_rhs(q, qd, t, phi_dot) * one
         schur = [[_weighted_dot(rows[i], rows[j], m_inv) for j in range(i + 1)] for i in range(len(rows))]
         accelerations_free = [m * x for m, x in zip(m_inv, f)]  # M^-1 Q_A
         b = [_row_dot(row, accelerations_free) - rhs[i] for i, row in enumerate(rows)]
@@ -343,7 +355,8 @@ def solve_spd_entries(a: list, b: list) -> list:
 
     LDL^T factorisation without pivoting (stable for SPD matrices), unrolled at trace time and
     skipping every product with a structural zero (fill-in included), then the two triangular
-    solves.
+    solves. Divisions are written as products with reciprocals, as a vmapped program would
+    compute a division by a number its batch shares.
     """
     n = len(b)
     lower = [[None] * n for _ in range(n)]  # L below its unit diagonal; None: zero
@@ -360,13 +373,13 @@ def solve_spd_entries(a: list, b: list) -> list:
                 if lower[i][k] is not None and lower[j][k] is not None:
                     term = lower[i][k] * lower[j][k] * diagonal[k]
                     s = -term if s is None else s - term
-            lower[i][j] = None if s is None else s / d
+            lower[i][j] = None if s is None else s * (1.0 / d)
     y = list(b)
     for i in range(n):
         for k in range(i):
             if lower[i][k] is not None:
                 y[i] = y[i] - lower[i][k] * y[k]
-    x = [y[i] / diagonal[i] for i in range(n)]
+    x = [y[i] * (1.0 / diagonal[i]) for i in range(n)]
     for i in reversed(range(n)):
         for k in range(i + 1, n):
             if lower[k][i] is not None:

@@ -7,7 +7,6 @@ Gauss–Legendre quadrature over the step (`jaxbearing.solution`).
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
 
@@ -27,15 +26,18 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
-@functools.partial(jax.jit, static_argnames="sparse")
-def _accelerations(model, t, q, qd, approach_speeds, engaged, sparse=False):
+@functools.partial(jax.jit, static_argnames="elimination")
+def _accelerations(model, t, q, qd, approach_speeds, engaged, elimination="dense"):
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field several times. XLA inlines the call, so the compiled
-    program is unchanged. ``sparse``: the elimination and the forms (`_forms.output_forms`)
-    the outputs use (`_simulate._outputs`); set here, since jit's cache of traces does not see
-    the context in which it was called."""
-    with output_forms() if sparse else contextlib.nullcontext():
-        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=sparse)
+    program is unchanged. ``elimination``: ``"dense"``, or ``"entries"``, the entry-by-entry
+    elimination with the cheaper forms of `_forms.output_forms` (the outputs' evaluation, and the
+    solver's where `compile.entry_elimination`); set here, since jit's cache of traces does not
+    see the context in which it was called."""
+    if elimination == "dense":
+        return model.accelerations(t, q, qd, approach_speeds, engaged)
+    with output_forms():
+        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):

@@ -43,7 +43,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from .._forms import output_forms
-from ..compile import jit, trace_state_clean
+from ..compile import entry_elimination, jit, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -378,11 +378,12 @@ def _simulate(
     )
     y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
     n = model.n_coordinates
+    elimination = "entries" if entry_elimination() else "dense"
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, elimination)])
 
     setup = _Setup(
         model=model,
@@ -457,7 +458,7 @@ def _outputs(
     def at(t, y, a, e):
         # outputs at one time
         q, qd = y[:n], y[n:]
-        qdd = _accelerations(model, t, q, qd, a, e, sparse=True)
+        qdd = _accelerations(model, t, q, qd, a, e, "entries")
         drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
         out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
         out.update(_forces(model, t, q, qd, a, e))
