@@ -10,8 +10,9 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
 - one simulation after compilation (fastest of ``--repeats``) for each solver row of `SOLVERS`:
   the default (Tsit5), Dopri5 and Kvaerno5, with steps taken and rejected, and Kvaerno5 with
   the smooth ball force (the model for gradients); every CPU item runs with
-  `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), and one Tsit5 row
-  without it (``--plain-loops``), for the gain;
+  `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), one Tsit5 row
+  without it (``--plain-loops``), for the gain, and one with `jaxbearing.enable_entry_elimination`
+  as well (``--entries``: FMA off, Eq. 36 solved entry by entry);
 - compile time of a forward run and of a 3-parameter forward-mode gradient, and the cost of that
   gradient (clearance, restitution, ball stiffness; smooth peak ball load) relative to one
   forward run of the same model and metric, for the paper and the smooth ball force;
@@ -19,8 +20,8 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   with exact contact events) for LSODA, BDF, Radau and RK45; the fastest one that stays accurate
   sets the speed ratio;
 - sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
-  restitution on 1 and on 2 CPU devices, with the sweep's default output times (the standard
-  metrics need none but [t0, t1]);
+  restitution on 1 and on 2 CPU devices, and on 2 with the entry elimination, with the sweep's
+  default output times (the standard metrics need none but [t0, t1]);
 - peak memory (maximum resident set size) of each measurement.
 
 The group ``gpu`` (run alone, ``--only gpu``; results in ``results_gpu.json`` with the device's
@@ -69,13 +70,20 @@ REFERENCE_FACTOR = 1e-3  # reference tolerances relative to the timed ones
 POSITION_TOLERANCE = 1e-7  # [m]
 LOAD_TOLERANCE = 0.5  # [N]
 POSITIONS = [0, 1, 3, 4, 6, 7, 9, 10]  # x, y of every body
-SOLVERS = (  # (row label, solver name, ball force, loops as kernel sequences)
-    ("default (Tsit5)", "default", "paper", False),
-    ("Dopri5", "dopri5", "paper", False),
-    ("Kvaerno5", "kvaerno5", "paper", False),
-    ("Kvaerno5, smooth force", "kvaerno5", "smooth", False),
-    ("Tsit5, plain loops", "default", "paper", True),
+SOLVERS = (  # (row label, solver name, ball force, process setting: see `SETTINGS`)
+    ("default (Tsit5)", "default", "paper", "loop_kernels"),
+    ("Dopri5", "dopri5", "paper", "loop_kernels"),
+    ("Kvaerno5", "kvaerno5", "paper", "loop_kernels"),
+    ("Kvaerno5, smooth force", "kvaerno5", "smooth", "loop_kernels"),
+    ("Tsit5, plain loops", "default", "paper", "plain_loops"),
+    ("Tsit5, entry elimination", "default", "paper", "entries"),
 )
+SETTINGS = {  # a child's process-wide XLA:CPU settings -> the child's command-line options
+    "loop_kernels": {},  # jb.enable_loop_kernels (every CPU item's default)
+    "plain_loops": {"plain_loops": True},  # without it
+    "entries": {"entries": True},  # with it and jb.enable_entry_elimination
+}
+ENTRIES_LABEL = SOLVERS[-1][0]
 SCIPY_METHODS = ("LSODA", "BDF", "Radau", "RK45")
 SCIPY_MAX_WALL = 300.0  # [s] cap per SciPy run
 GRADIENT_NAMES = ("bearing.clearance", "impact.restitution", "bearing.stiffness")
@@ -438,8 +446,8 @@ def measure(args, results) -> dict:
 def _singles(args, settings, results):
     results["single"] = []
     print("\none simulation after compilation")
-    for label, solver, force, plain in SOLVERS[: args.solver_rows]:
-        row = dict(label=label, **_child("single", settings, solver=solver, force=force, plain_loops=plain))
+    for label, solver, force, setting in _solver_rows(args.solver_rows):
+        row = dict(label=label, **_child("single", settings, solver=solver, force=force, **SETTINGS[setting]))
         results["single"].append(row)
         print(
             f"  {label:24s} {row['wall_s']:7.3f} s  compile {row['compile_s']:5.1f} s  steps {row['steps']:6d} "
@@ -447,6 +455,12 @@ def _singles(args, settings, results):
             f"load {row['ball_load_error_N']:.3f} N  {row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
             flush=True,
         )
+
+
+def _solver_rows(n):
+    """The first ``n`` rows of `SOLVERS`, and the entry elimination's row in any case."""
+    rows = SOLVERS[:n]
+    return rows if rows[-1][0] == ENTRIES_LABEL else rows + SOLVERS[-1:]
 
 
 def _outputs_row(settings, results):
@@ -491,11 +505,12 @@ def _scipy_rows(args, settings, results):
 def _sweep_rows(args, settings, results):
     results["sweep"] = []
     print("\nsweep throughput")
-    for devices in (1, 2):
-        row = _child("sweep", settings, devices=devices, sweep_n=args.sweep_n, chunk_size=args.chunk_size)
+    for devices, setting in ((1, "loop_kernels"), (2, "loop_kernels"), (2, "entries")):
+        row = _child("sweep", settings, devices=devices, sweep_n=args.sweep_n, chunk_size=args.chunk_size,
+                     **SETTINGS[setting])
         results["sweep"].append(row)
         print(
-            f"  {devices} device(s): {row['points']} points in {row['wall_s']:.2f} s = {row['throughput']:.2f} "
+            f"  {devices} device(s){', entry elimination' if row['entries'] else ''}: {row['points']} points in {row['wall_s']:.2f} s = {row['throughput']:.2f} "
             f"simulations/s (first call {row['first_call_s']:.1f} s, {row['chunk_size']} per device per chunk)  "
             f"{row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
             flush=True,
@@ -580,7 +595,9 @@ def _targets(r) -> dict:
     kvaerno = next((row for row in r.get("single", []) if row["label"] == "Kvaerno5"), None)
     accurate_scipy = [row for row in r.get("scipy", []) if row["accurate"]]
     fastest = min(accurate_scipy, key=lambda row: row["wall_s"]) if accurate_scipy else None
-    sweep2 = next((row for row in r.get("sweep", []) if row["devices"] == 2), None)
+    sweep2 = next((row for row in r.get("sweep", []) if row["devices"] == 2 and not row.get("entries")), None)
+    sweep2_entries = next((row for row in r.get("sweep", []) if row["devices"] == 2 and row.get("entries")), None)
+    entries = next((row for row in r.get("single", []) if row["label"] == ENTRIES_LABEL), None)
     if kvaerno:
         targets["Kvaerno5 <= 2.5 s"] = (kvaerno["wall_s"], kvaerno["wall_s"] <= 2.5)
     if r.get("outputs"):
@@ -588,8 +605,14 @@ def _targets(r) -> dict:
     if fastest and default:
         ratio = fastest["wall_s"] / default["wall_s"]
         targets[f">= 30x faster than SciPy ({fastest['method']})"] = (ratio, ratio >= 30.0)
+    if fastest and entries:
+        ratio = fastest["wall_s"] / entries["wall_s"]
+        targets[f">= 30x faster than SciPy ({fastest['method']}), entry elim."] = (ratio, ratio >= 30.0)
     if sweep2:
         targets[">= 20 simulations/s on 2 CPU devices"] = (sweep2["throughput"], sweep2["throughput"] >= 20.0)
+    if sweep2_entries:
+        rate = sweep2_entries["throughput"]
+        targets[">= 20 simulations/s on 2 CPU devices, entry elim."] = (rate, rate >= 20.0)
     gpu_rates = [row["throughput"] for row in r.get("gpu", {}).get("sweep", []) if row["throughput"]]
     if gpu_rates:
         targets[">= 2000 simulations/s on one GPU"] = (max(gpu_rates), max(gpu_rates) >= 2000.0)
@@ -624,14 +647,21 @@ def main(argv=None):
     parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
     parser.add_argument("--plain-loops", action="store_true",
                         help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
+    parser.add_argument("--entries", action="store_true",
+                        help="with jb.enable_entry_elimination (FMA off, Eq. 36 solved entry by entry)")
     args = parser.parse_args(argv)
     if args.item:
         if not args.plain_loops:
             from jaxbearing.compile import enable_loop_kernels
 
             enable_loop_kernels()
+        if args.entries:
+            from jaxbearing.compile import enable_entry_elimination
+
+            assert enable_entry_elimination()
         row = ITEMS[args.item](args)
         row["loop_kernels"] = not args.plain_loops
+        row["entries"] = args.entries
         row["peak_memory_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(json.dumps(row))
         return
