@@ -502,10 +502,13 @@ def segment(s: _Setup, c: _Carry, slot):
     t_end, y_end, paused, since, control = _end(s, c, sol, last)
     ok = (sol.result == diffrax.RESULTS.successful) | (sol.result == diffrax.RESULTS.event_occurred) | paused
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
-    # stats of the segment: its accepted steps, the last one only up to t_end (an event)
+    # stats of the segment: its accepted steps, the last one only up to t_end (an event); a
+    # finished member's idle solve adds nothing. They join those of the stop interval.
     closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
-    peaks, integrals, fatigue = _add(stats, closing)
-    peaks = jnp.where(c.done, -jnp.inf, peaks)  # a finished member's idle solve adds nothing
+    ours = _add(stats, closing)
+    nothing = (jnp.full_like(ours[0], -jnp.inf), jnp.zeros_like(ours[1]), jnp.zeros_like(ours[2]))
+    ours = jax.tree_util.tree_map(lambda x, y: jnp.where(c.done, y, x), ours, nothing)
+    interval = _add((c.peaks[c.cell], c.integrals[c.cell], c.fatigue[c.cell]), ours)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = _no_onset(c.t)
     if s.event is not None:
@@ -530,9 +533,9 @@ def segment(s: _Setup, c: _Carry, slot):
         outputs=outputs,
         pending=pending,
         written=written,
-        peaks=c.peaks.at[c.cell].set(jnp.maximum(c.peaks[c.cell], peaks)),
-        integrals=c.integrals.at[c.cell].add(jnp.where(c.done, 0.0, integrals)),
-        fatigue=c.fatigue.at[c.cell].add(jnp.where(c.done, 0.0, fatigue)),
+        peaks=c.peaks.at[c.cell].set(interval[0]),
+        integrals=c.integrals.at[c.cell].set(interval[1]),
+        fatigue=c.fatigue.at[c.cell].set(interval[2]),
         done=finished,
         result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
         steps=c.steps + jnp.where(c.done, 0, sol.stats["num_steps"]),
