@@ -44,6 +44,7 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
     valid = np.zeros(max_segments, bool)
     for slot, (t, v) in onsets:
         times[slot], speeds[slot], valid[slot] = t, v, True
+    contact = np.zeros(T) if contact_force is None else np.asarray(contact_force, dtype=float)
     return SimpleNamespace(
         ts=ts,
         q=q,
@@ -52,9 +53,8 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         ball_loads=loads,
         bearing_force=force,
         cage_angle=np.zeros(T),
-        contact_force=np.zeros(T)
-        if contact_force is None
-        else np.asarray(contact_force, dtype=float),
+        contact_force=contact,
+        segments=fake_segments(ts, loads, np.hypot(force[:, 0], force[:, 1]), contact),
         penetration=np.zeros(T),
         drift=np.linspace(0.0, 1e-11, T),
         contacts=SimpleNamespace(
@@ -65,6 +65,18 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         num_rejected_steps=7,
         num_segments=3,
     )
+
+
+def fake_segments(ts, loads, bearing, contact):
+    """`SegmentStats`-like peaks of the samples over the intervals between the stops that a
+    solve of [ts[0], ts[-1]] has (t0, `metrics.T_MIN` where inside, t1)."""
+    edges = np.unique(np.clip([ts[0], report.PEAK_FROM, ts[-1]], ts[0], ts[-1]))
+    rows = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        inside = (ts >= a) & (ts <= b)
+        rows.append([loads[inside].max(), bearing[inside].max(), contact[inside].max()] + [0.0] * 12)
+    return SimpleNamespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
+                           valid=np.ones(len(rows), bool))
 
 
 def test_series_names_and_values():
@@ -168,6 +180,21 @@ def test_summarize_is_json_ready(tmp_path):
     loaded = json.loads(path.read_text())
     assert loaded["nan"] is None and loaded["arr"] == [0, 1]
     assert "peak impact force" in report.format_summary("with impact", s)
+
+
+def test_summary_peaks_come_from_the_solution_not_the_samples():
+    """The summary's peaks are `jb.metrics`' (every step and its interpolant, recorded per stop
+    interval), not the largest sample; their time is the largest sample's; NaN in a window the
+    run did not reach."""
+    ts = np.linspace(0.0, 0.1, 11)
+    sol = fake_solution(ts, contact_force=np.where(ts > 0.085, 50.0, 0.0))
+    sol.segments.peaks[-1, :3] = [7.0, 6.0, 64.0]  # between samples, after 0.04 s
+    s = report.summarize(sol)
+    assert (s["peak_ball_load_N"], s["peak_bearing_force_N"], s["peak_impact_force_N"]) == (7.0, 6.0, 64.0)
+    assert s["peak_impact_force_time_s"] == pytest.approx(0.09)  # the first sample at 50 N
+    early = report.summarize(fake_solution(np.linspace(0.0, 0.03, 4)))
+    assert math.isnan(early["peak_bearing_force_N"]) and math.isnan(early["peak_ball_load_N"])
+    assert early["peak_impact_force_N"] == 0.0
 
 
 def test_write_csv_stride_and_atomic(tmp_path):

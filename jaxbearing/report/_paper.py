@@ -7,6 +7,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .. import metrics
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
 from ..metrics import T_MIN
 from ._series import Peak, as_series, ball_keys, contact_intervals, first_contact, onsets
@@ -71,18 +72,21 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     Keys (units in the suffix): ``t_final_s``, ``samples``, ``first_contact_time_s``,
     ``first_contact_approach_speed_m_per_s``, ``contact_count`` (onsets), ``onsets`` (list of
     ``[time_s, approach_speed_m_per_s]``), ``contact_intervals`` (sampled ``[start_s, end_s,
-    peak_N]``), ``peak_impact_force_N`` / ``_time_s`` (whole run), ``peak_bearing_force_N`` /
-    ``_time_s`` (|F| over t >= ``t_min``), ``peak_ball_load_N`` / ``_time_s`` /
-    ``peak_ball_load_ball`` (over t >= ``t_min``), ``peak_window_from_s``, ``max_drift``
-    (max |Phi| [m or rad]), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
+    peak_N]``), ``peak_impact_force_N`` (whole run), ``peak_bearing_force_N`` (|F| over t >=
+    ``t_min``, a stop of the solve), ``peak_ball_load_N`` (over t >= ``t_min``), each with its
+    ``_time_s``, and ``peak_ball_load_ball``; ``peak_window_from_s``, ``max_drift`` (max |Phi|
+    [m or rad]), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
+
+    The peaks are `jaxbearing.metrics`' (from every solver step and its interpolant, whatever
+    the output times; NaN where the run ended before ``t_min``); their time and ball are those of
+    the largest output sample, so they are as fine as the sampling.
     """
     data = series(sol)
     times, speeds = onsets(sol)
     first_t, first_v = first_contact(sol)
+    has_bearing = sol.bearing_force is not None
     impact = peak(data, "contact_force")
-    bearing = (
-        peak(data, "bearing_f", t_min) if "bearing_f" in data else Peak(math.nan, math.nan, None)
-    )
+    bearing = peak(data, "bearing_f", t_min) if has_bearing else Peak(math.nan, math.nan, None)
     ball = peak(data, "ball_loads", t_min)
     drift = np.asarray(sol.drift, dtype=float)
     return {
@@ -93,11 +97,11 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "contact_count": int(times.size),
         "onsets": [[float(a), float(b)] for a, b in zip(times, speeds)],
         "contact_intervals": [list(x) for x in contact_intervals(data)],
-        "peak_impact_force_N": impact.value,
+        "peak_impact_force_N": _peak(metrics.peak_impact_force, sol, -math.inf),
         "peak_impact_force_time_s": impact.time,
-        "peak_bearing_force_N": bearing.value,
+        "peak_bearing_force_N": _peak(metrics.peak_bearing_force, sol, t_min, has_bearing),
         "peak_bearing_force_time_s": bearing.time,
-        "peak_ball_load_N": ball.value,
+        "peak_ball_load_N": _peak(metrics.peak_ball_load, sol, t_min, has_bearing),
         "peak_ball_load_time_s": ball.time,
         "peak_ball_load_ball": int(ball.key[4:]) if ball.key else None,
         "peak_window_from_s": float(t_min),
@@ -106,6 +110,13 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "num_rejected_steps": int(sol.num_rejected_steps),
         "num_segments": int(sol.num_segments),
     }
+
+
+def _peak(metric, sol, t_min: float, applies: bool = True) -> float:
+    """``metric(sol, t_min)`` [N]; NaN where it does not apply or the run ended before ``t_min``."""
+    if not applies or float(sol.t_final) <= t_min:
+        return math.nan
+    return float(metric(sol, t_min=t_min))
 
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
