@@ -97,11 +97,11 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "contact_count": int(times.size),
         "onsets": [[float(a), float(b)] for a, b in zip(times, speeds)],
         "contact_intervals": [list(x) for x in contact_intervals(data)],
-        "peak_impact_force_N": _peak(metrics.peak_impact_force, sol, -math.inf),
+        "peak_impact_force_N": _metric_peak(metrics.peak_impact_force, sol, -math.inf),
         "peak_impact_force_time_s": impact.time,
-        "peak_bearing_force_N": _peak(metrics.peak_bearing_force, sol, t_min, has_bearing),
+        "peak_bearing_force_N": _metric_peak(metrics.peak_bearing_force, sol, t_min, has_bearing),
         "peak_bearing_force_time_s": bearing.time,
-        "peak_ball_load_N": _peak(metrics.peak_ball_load, sol, t_min, has_bearing),
+        "peak_ball_load_N": _metric_peak(metrics.peak_ball_load, sol, t_min, has_bearing),
         "peak_ball_load_time_s": ball.time,
         "peak_ball_load_ball": int(ball.key[4:]) if ball.key else None,
         "peak_window_from_s": float(t_min),
@@ -112,7 +112,7 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     }
 
 
-def _peak(metric, sol, t_min: float, applies: bool = True) -> float:
+def _metric_peak(metric, sol, t_min: float, applies: bool = True) -> float:
     """``metric(sol, t_min)`` [N]; NaN where it does not apply or the run ended before ``t_min``."""
     if not applies or float(sol.t_final) <= t_min:
         return math.nan
