@@ -66,41 +66,13 @@ class _EventRoot(optx.AbstractRootFinder):
         upper = jnp.asarray(options["upper"], f_struct.dtype)
         f_lower, _ = fn(lower, args)
         f_upper, _ = fn(upper, args)
-        lower = jnp.where(f_upper == 0, upper, lower)
-        flip = f_lower > f_upper
-        width = upper - lower
-        state = _ITPState(
-            lower=lower,
-            upper=upper,
-            g_lower=jnp.where(flip, -f_lower, f_lower),
-            g_upper=jnp.where(flip, -f_upper, f_upper),
-            flip=flip,
-            next=upper,
-            error=jnp.array(jnp.inf, f_struct.dtype),
-            reach=_initial_reach(width, self.atol),
-            kappa=ITP_KAPPA / jnp.where(width > 0, width, 1.0),
-        )
-        return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
+        return itp_start(lower, upper, f_lower, f_upper, self.atol)
 
     def step(self, fn, y, args, options, state, tags):
         del y, options
-        x = state.next
-        error, aux = fn(x, args)
-        g = jnp.where(state.flip, -error, error)
-        below, above = g <= 0, g >= 0  # both at a root: the bracket collapses onto it
-        state = _ITPState(
-            lower=jnp.where(below, x, state.lower),
-            upper=jnp.where(above, x, state.upper),
-            g_lower=jnp.where(below, g, state.g_lower),
-            g_upper=jnp.where(above, g, state.g_upper),
-            flip=state.flip,
-            next=x,
-            error=error,
-            reach=0.5 * state.reach,
-            kappa=state.kappa,
-        )
-        new_x = _itp_point(state)
-        return new_x, eqx.tree_at(lambda s: s.next, state, new_x), aux
+        error, aux = fn(state.next, args)
+        state = itp_step(state, error)
+        return state.next, state, aux
 
     def terminate(self, fn, y, args, options, state, tags):
         scale = self.atol + self.rtol * jnp.abs(y)
@@ -115,6 +87,46 @@ class _EventRoot(optx.AbstractRootFinder):
 ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
 ITP_SLACK = 1  # steps allowed beyond bisection's (the method's n0)
 FALSI_GRID = 2.0**-47  # [s] (7.1e-15 s, below EVENT_TIME_TOLERANCE / 8): a power of two, exact
+
+
+def itp_start(lower, upper, f_lower, f_upper, atol) -> _ITPState:
+    """The ITP method's state for the bracket [lower, upper] [s] with f there, and the point it
+    evaluates first (`_EventRoot`)."""
+    lower = jnp.where(f_upper == 0, upper, lower)
+    flip = f_lower > f_upper
+    width = upper - lower
+    state = _ITPState(
+        lower=lower,
+        upper=upper,
+        g_lower=jnp.where(flip, -f_lower, f_lower),
+        g_upper=jnp.where(flip, -f_upper, f_upper),
+        flip=flip,
+        next=upper,
+        error=jnp.full_like(f_upper, jnp.inf),
+        reach=_initial_reach(width, atol),
+        kappa=ITP_KAPPA / jnp.where(width > 0, width, 1.0),
+    )
+    return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
+
+
+def itp_step(state: _ITPState, error) -> _ITPState:
+    """One step of the ITP method: ``error`` is f at ``state.next``; the bracket keeps the half
+    that holds the sign change, and ``next`` is the point to evaluate after it."""
+    x = state.next
+    g = jnp.where(state.flip, -error, error)
+    below, above = g <= 0, g >= 0  # both at a root: the bracket collapses onto it
+    state = _ITPState(
+        lower=jnp.where(below, x, state.lower),
+        upper=jnp.where(above, x, state.upper),
+        g_lower=jnp.where(below, g, state.g_lower),
+        g_upper=jnp.where(above, g, state.g_upper),
+        flip=state.flip,
+        next=x,
+        error=error,
+        reach=0.5 * state.reach,
+        kappa=state.kappa,
+    )
+    return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
 
 
 def _initial_reach(width, atol):
