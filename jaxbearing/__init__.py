@@ -22,6 +22,7 @@ from .solve import (
     default_solver,
     kvaerno5,
     simulate,
+    simulate_one_loop,
 )
 from ._sweep import sweep
 from ._tune import TuneResult, sensitivity, tune
@@ -51,6 +52,7 @@ __all__ = [
     "paths",
     "sensitivity",
     "simulate",
+    "simulate_one_loop",
     "sweep",
     "tune",
 ]

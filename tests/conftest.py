@@ -15,7 +15,7 @@ jax.config.update("jax_enable_x64", True)
 # worker ends alone on a whole group; the other tests follow one by one.
 SHARED = {  # modules, each a group
     "test_cli", "test_compile", "test_hertz", "test_impact", "test_life", "test_metrics_exact",
-    "test_multibody", "test_pauses", "test_progress", "test_rotor_metrics", "test_sweep",
+    "test_multibody", "test_one_loop", "test_pauses", "test_progress", "test_rotor_metrics", "test_sweep",
     "test_transforms", "test_validation", "test_windows", "test_xu2014",
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve

@@ -34,6 +34,11 @@ How it runs
   result is that of the point run alone, to the last bit), so at each of its events a member
   waits for the others at most that many steps; a chunk still runs until its slowest member
   finishes: points that need many steps slow down their chunk, not the others.
+- ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a
+  member, no segments and no output times, for large batches on accelerators (README, *On a
+  GPU*); its metrics agree with `simulate`'s to the solver's accuracy, not to the last bit. It
+  takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
+  ``"solve": "one_loop"`` in the manifest.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
   need: ``[t0, t1]`` when every metric comes from the solve's per-step records
   (`Solution.segments` and `.fatigue`: `metrics.STANDARD`, `metrics.SMOOTH`, `life.metric`, and

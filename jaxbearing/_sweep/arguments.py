@@ -16,7 +16,7 @@ import numpy as np
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
-from ..solve import default_max_segments, default_solver, simulate
+from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
 
 DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
@@ -26,6 +26,7 @@ SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read
 READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
 RESERVED = ("status", "failed", "point")
 NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itself
+SOLVES = {"segments": simulate, "one_loop": simulate_one_loop}  # what a member's solve calls
 # jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
 # whatever the output times: recognised as sample-free without the attribute
 _SEGMENT_METRICS = frozenset({*_metrics.STANDARD.values(), *_metrics.SMOOTH.values()})
@@ -45,24 +46,45 @@ class Request(NamedTuple):
     t1: float
     ts: np.ndarray
     sim_kwargs: dict
+    solve: str  # a key of `SOLVES`
 
 
-def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
+def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segments") -> Request:
     """Check every argument of `jaxbearing.sweep` (ValueError/TypeError naming the fix)."""
     if not isinstance(model, Mechanism):
         raise TypeError(f"sweep needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    if solve not in SOLVES:
+        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
     names, axes = parameters(model, params)
     points, shape = grid_points(names, axes, grid)
     items = metric_items(metrics, names)
-    sim_kwargs = simulate_kwargs_of(simulate_kwargs)
+    sim_kwargs = simulate_kwargs_of(simulate_kwargs, solve)
     t1 = float(t1)
     t0 = float(sim_kwargs.get("t0", 0.0))
-    sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
     sim_kwargs.setdefault("fatigue", any(needs_fatigue(fn) for _, fn in items))
-    if sim_kwargs.get("max_segments") is None:
-        sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
+    if solve == "one_loop":
+        _check_one_loop(items, ts)
+    else:
+        sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
+        if sim_kwargs.get("max_segments") is None:
+            sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
     check_points(model, names, points)
-    return Request(names, axes, bool(grid), points, shape, items, t0, t1, output_times(items, t0, t1, ts), sim_kwargs)
+    ts = output_times(items, t0, t1, ts)
+    return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
+
+
+def _check_one_loop(items, ts):
+    """`simulate_one_loop` keeps no output times: ``ts`` must be None and every metric must come
+    from the solve's records (`needs_samples`)."""
+    if ts is not None:
+        raise ValueError('solve="one_loop" keeps no output times: leave ts unset.')
+    sampled = [name for name, fn in items if needs_samples(fn)]
+    if sampled:
+        raise ValueError(
+            f'solve="one_loop" keeps no output samples, which the metrics {sampled} read: use '
+            "metrics of the solve's records (metrics.STANDARD, metrics.SMOOTH, life.metric, or "
+            'functions marked sample_free = True), or solve="segments".'
+        )
 
 
 def parameters(model, params):
@@ -165,34 +187,38 @@ def output_times(items, t0, t1, ts) -> np.ndarray:
     return ts
 
 
-def simulate_kwargs_of(kwargs):
-    """The keyword arguments forwarded to `simulate`, sorted; TypeError for others."""
-    accepted = set(_simulate_parameters()) - {"model", "t1", "ts"}
+def simulate_kwargs_of(kwargs, solve="segments"):
+    """The keyword arguments forwarded to the solve (`SOLVES`), sorted; TypeError for others."""
+    name = SOLVES[solve].__name__
+    accepted = set(_simulate_parameters(solve)) - {"model", "t1", "ts"}
     for key in kwargs:
         if key in NOT_FORWARDED:
-            raise TypeError(f"sweep sets simulate's {key!r} itself; do not pass it.")
+            raise TypeError(f"sweep sets {name}'s {key!r} itself; do not pass it.")
         if key not in accepted:
             raise TypeError(
-                f"sweep got an unexpected keyword {key!r}; it forwards only simulate's "
+                f"sweep got an unexpected keyword {key!r}; it forwards only {name}'s "
                 f"{sorted(accepted - set(NOT_FORWARDED))}."
             )
     return dict(sorted(kwargs.items()))
 
 
-def resolved_settings(sim_kwargs):
-    """simulate's keyword arguments with defaults filled in (for the manifest and attributes)."""
+def resolved_settings(sim_kwargs, solve="segments"):
+    """The solve's keyword arguments with defaults filled in (for the manifest and attributes):
+    `simulate`'s, or `simulate_one_loop`'s with ``solver`` (Tsit5) and ``max_segments`` (none,
+    0) added."""
     settings = {}
-    for name, p in _simulate_parameters().items():
+    for name, p in _simulate_parameters(solve).items():
         if p.kind is not inspect.Parameter.KEYWORD_ONLY or name in NOT_FORWARDED:
             continue
         settings[name] = sim_kwargs.get(name, p.default)
     if settings.get("solver") is None:
         settings["solver"] = default_solver()
+    settings.setdefault("max_segments", 0)
     return settings
 
 
-def _simulate_parameters():
-    return inspect.signature(simulate).parameters
+def _simulate_parameters(solve="segments"):
+    return inspect.signature(SOLVES[solve]).parameters
 
 
 def check_points(model, names, points):

@@ -30,6 +30,7 @@ def sweep(
     out: str | os.PathLike | None = None,
     chunk_size: int | None = None,
     progress: bool = True,
+    solve: str = "segments",
     **simulate_kwargs,
 ):
     """Simulate ``model`` at many parameter values and return labelled metrics (how it runs, the
@@ -55,6 +56,11 @@ def sweep(
         chunk_size: points per device per chunk (default `default_chunk_size()`: 32 on CPU, 1024
             on accelerators; or the layout already in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
+        solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
+            `simulate_one_loop` run (one while loop a member, no output times: for large
+            batches on accelerators; its metrics agree with `simulate`'s to the solver's
+            accuracy, not to the last bit). It takes ``t0``, ``rtol``, ``atol``, ``max_steps``,
+            ``window_edges`` and ``fatigue``, and only metrics of the solve's records.
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
             max_steps, max_segments, adjoint, ...); ``throw`` and ``progress`` are set by the
             sweep.
@@ -73,7 +79,7 @@ def sweep(
 
     _checks.require_x64()
     started = time.perf_counter()
-    request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs)
+    request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve)
     out = None if out is None else Path(out)
     n_devices = jax.device_count()
     chunk_points = arguments.chunk_points(chunk_size, n_devices, request.points.shape[0])

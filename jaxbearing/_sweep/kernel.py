@@ -13,7 +13,7 @@ from jax.sharding import NamedSharding, PartitionSpec as P
 
 from .. import metrics as _metrics, paths
 from ..solution import RESULTS
-from ..solve import simulate
+from .arguments import SOLVES
 
 AXIS = "d"  # name of the device axis of the mesh
 SUCCESS = int(RESULTS.successful._value)
@@ -30,6 +30,7 @@ class ChunkRunner:
         self.metric_items = request.metric_items
         self.t1 = request.t1
         self.sim_items = tuple(request.sim_kwargs.items())
+        self.solve = request.solve
         self.mesh = mesh
         self.padded = padded
         replicated = NamedSharding(mesh, P())
@@ -48,7 +49,8 @@ class ChunkRunner:
         rows = jax.device_put(rows, self.split)
         model = eqx.combine(self.dynamic, self.static)
         values, status = run_chunk(
-            model, rows, self.ts, self.names, self.metric_items, self.t1, self.sim_items, self.mesh
+            model, rows, self.ts, self.names, self.metric_items, self.t1, self.sim_items, self.solve,
+            self.mesh,
         )
         values, status = _to_host((values, status))
         return values[:n], status[:n].astype(np.int32)
@@ -88,10 +90,13 @@ def _to_host(tree):
     return jax.tree_util.tree_map(np.asarray, tree)
 
 
-def _member(model, row, ts, names, metric_items, t1, sim_kwargs):
+def _member(model, row, ts, names, metric_items, t1, sim_kwargs, solve):
     """(metrics (n_metrics,), result code) of one point; NaN metrics where the solve failed."""
     m = paths.replace(model, dict(zip(names, row)))
-    sol = simulate(m, t1, ts, throw=False, **sim_kwargs)
+    if solve == "one_loop":
+        sol = SOLVES[solve](m, t1, throw=False, **sim_kwargs)
+    else:
+        sol = SOLVES[solve](m, t1, ts, throw=False, **sim_kwargs)
     code = jnp.asarray(sol.result._value, jnp.int32)
     ok = code == SUCCESS
     outs = []
@@ -104,14 +109,14 @@ def _member(model, row, ts, names, metric_items, t1, sim_kwargs):
 
 
 @eqx.filter_jit  # XLA's default options: see `jaxbearing.compile`
-def run_chunk(model, rows, ts, names, metric_items, t1, sim_items, mesh):
+def run_chunk(model, rows, ts, names, metric_items, t1, sim_items, solve, mesh):
     """The members of ``rows`` (sharded over ``mesh``'s devices, vmapped on each)."""
     dynamic, static = eqx.partition(model, eqx.is_array)
     sim_kwargs = dict(sim_items)
 
     def per_device(dynamic, rows, ts):
         def point(row):
-            return _member(eqx.combine(dynamic, static), row, ts, names, metric_items, t1, sim_kwargs)
+            return _member(eqx.combine(dynamic, static), row, ts, names, metric_items, t1, sim_kwargs, solve)
 
         return jax.vmap(point)(rows)
 

@@ -41,12 +41,16 @@ def manifest(model, request):
         "metrics": {name: _metric_label(fn) for name, fn in request.metric_items},
         "t1": request.t1,
         "ts": np.asarray(request.ts).tolist(),
-        "simulate": {k: _jsonable(v) for k, v in resolved_settings(request.sim_kwargs).items()},
+        "simulate": {
+            k: _jsonable(v) for k, v in resolved_settings(request.sim_kwargs, request.solve).items()
+        },
         "model_fingerprint": _fingerprint(model, names),
         "model_parameters": provenance.parameters(paths.replace(model, {n: SWEPT for n in names})),
         "chunk_points": None,  # set once the folder is opened
         "versions": provenance.versions(),
     }
+    if request.solve != "segments":  # recorded only then: older folders stay resumable
+        record["solve"] = request.solve
     return json.loads(json.dumps(record))
 
 

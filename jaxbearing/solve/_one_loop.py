@@ -1,0 +1,376 @@
+"""`simulate_one_loop`: the solve as one while loop per member, for large batches on accelerators.
+
+`simulate` runs a `lax.scan` of segments, each a `diffrax.diffeqsolve` with its own loops (the
+step loop, the event's root find, the output writes): on a GPU every loop iteration is a host
+round trip and every step launches a few hundred kernels (README, *On a GPU*). Here one
+iteration of one `lax.while_loop` does all of a step's work with selects instead of branches, so
+that a vmapped batch runs as one loop whose body XLA fuses into few kernels:
+
+1. a member that is locating an event takes one step of the ITP root finder (`_segment`'s
+   `_EventRoot` method, on the stored step's interpolant); once the bracket is narrower than
+   `EVENT_TIME_TOLERANCE` it ends the step at the bracket's upper end, records it, and switches
+   what the event found, as `simulate`'s segment ends do (`_segment._switch`);
+2. every member then evaluates Tsit5's stages 2–7 (diffrax's tableau, FSAL). A member that has
+   just switched uses the first of these evaluations for its new first stage instead (the
+   right-hand side changed with the switch), and attempts its next step in the next iteration;
+3. diffrax's `PIDController` (simulate's default: pcoeff = icoeff = 0.3) accepts or rejects the
+   step, and proposes the next one; steps end at the stops (`WINDOW_START`, ``window_edges``,
+   t1), so that the metrics' windows line up with the recorded intervals;
+4. an accepted step after which an event value is positive is not taken: its member locates
+   the event (1.) in the next iterations. Otherwise the step's `SegmentStats` (and
+   `FatigueStats`) are recorded from its interpolant exactly as `simulate` records them
+   (`_recording._step_stats`).
+
+It integrates the same equations with the same solver, controller and event rules as `simulate`,
+so its metrics agree with `simulate`'s to the solver's accuracy (not to the last bit: the steps
+differ where `simulate` restarts a segment). It keeps no output times (the `Solution` has two:
+t0 and the time reached) and is not differentiable (use `simulate`). Where `simulate` counts
+``max_steps`` per segment, here it bounds the steps (accepted and rejected) of the whole run.
+"""
+
+from __future__ import annotations
+
+import functools
+import numbers
+from typing import NamedTuple
+
+import diffrax
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+
+from .. import _checks
+from ..compile import jit
+from ..multibody.mechanism import Mechanism
+from ..solution import RESULTS, WINDOW_START, Contacts, SegmentStats
+from ._recording import _accelerations, _add, _forces, _peaks, _step_stats, fatigue_size, peak_size
+from ._segment import EVENT_TIME_TOLERANCE, _ITPState, _switch, event_values, itp_start, itp_step
+from ._simulate import (
+    INITIAL_STEP,
+    _checked_span,
+    _checked_tolerances,
+    _fatigue_stats,
+    _intervals,
+    _outputs,
+    _raise_on_failure,
+    _where_rows,
+)
+from ._stops import _stops
+
+ONSET_SLOTS = 64  # contact onsets kept in `Solution.contacts` (later ones are counted only)
+ROOT_STEPS = 64  # root-finder steps after which an event is taken at its bracket's upper end
+SMALLEST_STEP = 1e-15  # [s] a member whose proposed step falls below it has failed (dt_min_reached)
+
+_TSIT5 = diffrax.Tsit5()
+_ERROR_ORDER = 5  # Tsit5's, as diffrax passes it to the controller
+
+
+def simulate_one_loop(
+    model: Mechanism,
+    t1: float,
+    *,
+    t0: float = 0.0,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    max_steps: int = 1_000_000,
+    window_edges: tuple = (),
+    fatigue: bool = True,
+    throw: bool = True,
+):
+    """Integrate Eq. 36 from ``t0`` to ``t1`` [s] in one while loop (module docstring) and
+    return the `Solution` with what the metrics and the life read (``segments``, ``fatigue``,
+    ``contacts``), and outputs at two times only: ``t0`` and the time reached.
+
+    Args:
+        model: a `Mechanism`; starts from ``model.q0, qd0``.
+        t1: final time [s], > t0.
+        rtol, atol: error control of the step-size controller, as in `simulate`.
+        max_steps: steps (accepted and rejected) of the whole run, an integer >= 1.
+        window_edges: further stops [s], as in `simulate`.
+        fatigue: record `Solution.fatigue`, as in `simulate`.
+        throw: raise `SimulationError` on failure; with False, inspect ``sol.result``.
+
+    ``sol.contacts`` keeps the first `ONSET_SLOTS` contact onsets; ``num_segments`` counts the
+    stops and events passed, as `simulate`'s segments would. Not differentiable: derivatives
+    raise (use `simulate`, whose segments carry the events' implicit derivatives).
+    """
+    _checks.require_x64()
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"simulate_one_loop needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    _checks.raise_if_concrete(_checks.finite_leaves(model))
+    t0, t1 = _checked_span(t0, t1)
+    rtol, atol = _checked_tolerances(rtol, atol)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
+        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
+    stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    sol = _one_loop(model, t0, t1, rtol, atol, jnp.asarray(max_steps), stops, bool(fatigue))
+    return _raise_on_failure(sol, t1) if throw else sol
+
+
+class _State(NamedTuple):
+    """The loop's state, one member."""
+
+    t: jax.Array  # [s]
+    y: jax.Array  # [q, qd] at t
+    f: jax.Array  # dy/dt at t (Tsit5's first stage)
+    h: jax.Array  # next step [s], as the controller proposed it
+    control: tuple  # the PID controller's state
+    cell: jax.Array  # index of the next stop
+    approach: jax.Array  # (n_contacts,) [m/s]
+    in_contact: jax.Array  # (n_contacts,) bool
+    engaged: jax.Array  # (n_switched_balls,) bool
+    locating: jax.Array  # an accepted step crossed an event: its root is being found
+    step_end: jax.Array  # [s] that step's end
+    step_k: jax.Array  # (7, 2n) its stage increments (the interpolant's data)
+    step_h: jax.Array  # [s] the step the controller proposed after it
+    root: _ITPState  # the root finder's state
+    root_steps: jax.Array
+    peaks: jax.Array  # (n_stops, 3 + n), as `simulate`'s carry
+    integrals: jax.Array  # (n_stops, INTEGRALS)
+    fatigue: jax.Array  # (n_stops, 5 + 2 M)
+    onsets: tuple  # (time, approach speed, index) each (ONSET_SLOTS,)
+    n_onsets: jax.Array
+    events: jax.Array
+    steps: jax.Array
+    rejected: jax.Array
+    done: jax.Array
+    result: RESULTS
+
+
+def _stages(vector_field, t, y, f, h, args, first):
+    """Tsit5's step of ``h`` from (t, y) with first stage ``f`` (diffrax's tableau): (y1, error
+    estimate, stage increments h f_i (7, 2n), the right-hand side at y1 (FSAL), the first
+    evaluation's value). ``first`` = (where, t, y, args): where true, the first evaluation is
+    made there instead of at the second stage's point."""
+    tableau = _TSIT5.tableau
+    k = [h * f]
+    for i, (c, a) in enumerate(zip(tableau.c, tableau.a_lower)):
+        ti = t + float(c) * h
+        yi = y + sum(float(a[j]) * k[j] for j in range(len(a)))
+        args_i = args
+        if i == 0:
+            instead, t_first, y_first, args_first = first
+            ti, yi = jnp.where(instead, t_first, ti), jnp.where(instead, y_first, yi)
+            args_i = jax.tree_util.tree_map(functools.partial(jnp.where, instead), args_first, args)
+        value = vector_field(ti, yi, args_i)
+        if i == 0:
+            first_value = value
+        k.append(h * value)
+    y1 = y + sum(float(b) * k[j] for j, b in enumerate(tableau.b_sol) if b != 0.0)
+    error = sum(float(b) * k[j] for j, b in enumerate(tableau.b_error))
+    return y1, error, jnp.stack(k), value, first_value
+
+
+@jit
+def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
+    model, t0, t1 = eqxi.nondifferentiable(
+        (model, t0, t1), msg="simulate_one_loop is not differentiable: use simulate."
+    )
+    rules = model.violations()
+    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
+    y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+    n = model.n_coordinates
+    stops = _stops(t0, t1, 1, extra_stops)
+    controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
+
+    def vector_field(t, y, args):
+        approach, _, engaged = args
+        q, qd = y[:n], y[n:]
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, "entries")])
+
+    def event_max(t, y, in_contact, engaged):
+        return jnp.max(event_values(model, t, y, in_contact, engaged))
+
+    has_events = bool(model.contacts or model.n_switched_balls)
+    state = _initial_state(model, vector_field, stops, t0, t1, y0, fatigue)
+
+    def body(s: _State) -> _State:
+        args = (s.approach, s.in_contact, s.engaged)
+        interpolation = _TSIT5.interpolation_cls(t0=s.t, t1=s.step_end, y0=s.y, y1=s.y, k=s.step_k)
+
+        # 1. one root-finder step for the members locating an event
+        root = s.root
+        if has_events:
+            x = root.next
+            root = itp_step(root, event_max(x, interpolation.evaluate(x), s.in_contact, s.engaged))
+            narrow = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
+            small = jnp.abs(root.error) < EVENT_TIME_TOLERANCE
+            located = s.locating & ~s.done & narrow & (small | (s.root_steps + 1 >= ROOT_STEPS))
+        else:
+            located = jnp.zeros((), bool)
+        t_event = root.upper
+        y_event = interpolation.evaluate(t_event)
+        approach, in_contact, engaged = s.approach, s.in_contact, s.engaged
+        record = (s.t, s.t, jnp.asarray(-1), jnp.asarray(False))  # no onset
+        if has_events:
+            approach, in_contact, engaged, record = _switch(model, s, t_event, y_event, located)
+        events = s.events + located
+
+        # 2. the stages: a step from (t, y), or the first stage after a switch
+        t, y = jnp.where(located, t_event, s.t), jnp.where(located, y_event, s.y)
+        new_args = (approach, in_contact, engaged)
+        here = jnp.arange(stops.shape[0]) == s.cell  # one-hot rows: no gather or scatter (below)
+        stop = jnp.sum(jnp.where(here, stops, 0.0))
+        last = s.h >= stop - s.t
+        h = jnp.where(last, stop - s.t, s.h)
+        t_b = jnp.where(last, stop, s.t + h)
+        y1, error, ks, f1, first = _stages(
+            vector_field, s.t, s.y, s.f, h, args, (located, t, y, new_args)
+        )
+        stepping = ~s.done & ~s.locating
+        keep, _, next_t1, _, control, _ = controller.adapt_step_size(
+            s.t, t_b, s.y, y1, args, error, _ERROR_ORDER, s.control
+        )
+        finite = jnp.all(jnp.isfinite(y1)) & jnp.isfinite(next_t1)
+        keep = keep & finite
+        h_next = jnp.where(finite, next_t1 - jnp.where(keep, t_b, s.t), 0.2 * h)
+        # a step cut short at a stop proposes from its short length: go on with the longer one
+        h_next = jnp.where(keep & last, jnp.maximum(h_next, s.h), h_next)
+        control = jax.tree_util.tree_map(lambda a, b: jnp.where(stepping & finite, a, b), control, s.control)
+        crossed = jnp.zeros((), bool)
+        if has_events:
+            crossed = keep & (event_max(t_b, y1, s.in_contact, s.engaged) > 0)
+        accept = stepping & keep & ~crossed
+        start = stepping & keep & crossed
+
+        # 3. the stats of the step that ends here: an accepted one, or a located event's
+        recorded = accept | located
+        r_end = jnp.where(located, t_event, t_b)
+        r_k = jnp.where(located, s.step_k, ks)
+        r_step_end = jnp.where(located, s.step_end, t_b)
+        stepped = _TSIT5.interpolation_cls(t0=s.t, t1=r_step_end, y0=s.y, y1=s.y, k=r_k)
+        stats = _step_stats(model, stepped, s.t, r_end, args, fatigue)
+        row = tuple(_row(x, here) for x in (s.peaks, s.integrals, s.fatigue))
+        row = jax.tree_util.tree_map(lambda a, b: jnp.where(recorded, a, b), _add(row, stats), row)
+
+        # 4. where each member goes on
+        t_next = jnp.where(accept, t_b, t)
+        y_next = jnp.where(accept, y1, y)
+        at_stop = (accept & last) | (located & (t_event >= stop))
+        reached = at_stop & (stop >= t1)
+        too_small = stepping & ~keep & (h_next < SMALLEST_STEP)
+        out_of_steps = stepping & (s.steps + 1 >= max_steps) & ~reached
+        result = RESULTS.where(too_small, RESULTS.dt_min_reached, s.result)
+        result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
+        if has_events:
+            started = _start_root(event_max, s, t_b, y1)
+            root = jax.tree_util.tree_map(lambda a, b: jnp.where(start, a, b), started, root)
+        onset = located & record[3]
+        slot = onset & (jnp.arange(ONSET_SLOTS) == s.n_onsets)
+        onsets = tuple(jnp.where(slot, v, o) for o, v in zip(s.onsets, record[:3]))
+        return _State(
+            t=t_next,
+            y=y_next,
+            f=jnp.where(located, first, jnp.where(accept, f1, s.f)),
+            h=jnp.where(located, s.step_h, jnp.where(stepping, h_next, s.h)),
+            control=control,
+            cell=s.cell + (at_stop & ~reached),
+            approach=approach,
+            in_contact=in_contact,
+            engaged=engaged,
+            locating=(s.locating & ~located) | start,
+            step_end=jnp.where(start, t_b, s.step_end),
+            step_k=jnp.where(start, ks, s.step_k),
+            step_h=jnp.where(start, h_next, s.step_h),
+            root=root,
+            root_steps=jnp.where(start, 0, s.root_steps + s.locating),
+            peaks=jnp.where(here[:, None], row[0], s.peaks),
+            integrals=jnp.where(here[:, None], row[1], s.integrals),
+            fatigue=jnp.where(here[:, None], row[2], s.fatigue),
+            onsets=onsets,
+            n_onsets=s.n_onsets + onset,
+            events=events,
+            steps=s.steps + stepping,
+            rejected=s.rejected + (stepping & ~keep),
+            done=s.done | reached | too_small | out_of_steps,
+            result=result,
+        )
+
+    final = jax.lax.while_loop(lambda s: ~s.done, body, state)
+    t_final = final.t
+    t_start, t_end, valid = _intervals(stops, t0, t_final)
+    segments = SegmentStats(t_start, t_end, _where_rows(valid, final.peaks, 0.0), final.integrals, valid)
+    recorded = model.bearings and fatigue
+    fatigue_stats = _fatigue_stats(final.fatigue, t_start, t_end, valid) if recorded else None
+    ts = jnp.stack([t0, final.t])
+    ends = (
+        jnp.stack([y0, final.y]),
+        jnp.stack([state.approach, final.approach]),
+        jnp.stack([state.engaged, final.engaged]),
+    )
+    time, speed, index = final.onsets
+    kept = jnp.arange(ONSET_SLOTS) < final.n_onsets
+    contacts = Contacts(jnp.where(kept, time, jnp.nan), jnp.where(kept, speed, jnp.nan),
+                        jnp.where(kept, index, -1), kept)
+    return _outputs(
+        model,
+        ts,
+        lambda start, size, in_blocks=False: tuple(
+            jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
+        ),
+        2,
+        2,
+        contacts,
+        segments,
+        fatigue_stats,
+        final.result,
+        t_final,
+        final.steps,
+        final.rejected,
+        jnp.sum(valid) + final.events,
+    )
+
+
+def _row(x, here):
+    """The row of ``x`` (rows, m) where the one-hot ``here`` (rows,) is true: a sum of selects,
+    which a batch evaluates elementwise (a vmapped index is a gather, and XLA's compile time grew
+    with the batch size with one: docs/performance.md)."""
+    return jnp.sum(jnp.where(here[:, None], x, 0.0), axis=0)
+
+
+def _start_root(event_max, s: _State, t_b, y1) -> _ITPState:
+    """The root finder's state for the event in the step [s.t, t_b] (as `_EventRoot.init`)."""
+    f_lower = event_max(s.t, s.y, s.in_contact, s.engaged)
+    f_upper = event_max(t_b, y1, s.in_contact, s.engaged)
+    return itp_start(s.t, t_b, f_lower, f_upper, EVENT_TIME_TOLERANCE)
+
+
+def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
+    """At t0: nothing in contact, the balls with delta_r > 0 engaged (as `simulate`), the
+    initial state's peaks recorded in the first interval."""
+    n, n_contacts = model.n_coordinates, len(model.contacts)
+    approach = jnp.zeros(n_contacts)
+    in_contact = jnp.zeros(n_contacts, bool)
+    engaged = model.ball_deflections(t0, model.q0) > 0.0
+    q, qd = y0[:n], y0[n:]
+    start_peaks = _peaks(model, q, _forces(model, t0, q, qd, approach, engaged))
+    peaks = jnp.full((stops.shape[0], peak_size(model)), -jnp.inf).at[0].set(start_peaks)
+    zero = jnp.zeros((), y0.dtype)
+    root = _ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero, zero)
+    return _State(
+        t=t0,
+        y=y0,
+        f=vector_field(t0, y0, (approach, in_contact, engaged)),
+        h=(t1 - t0) * INITIAL_STEP,
+        control=(jnp.asarray(1.0), jnp.asarray(1.0), jnp.asarray(False)),
+        cell=jnp.asarray(0),
+        approach=approach,
+        in_contact=in_contact,
+        engaged=engaged,
+        locating=jnp.asarray(False),
+        step_end=t0,
+        step_k=jnp.zeros((7, 2 * n)),
+        step_h=zero,
+        root=root,
+        root_steps=jnp.asarray(0),
+        peaks=peaks,
+        integrals=jnp.zeros((stops.shape[0], 5)),
+        fatigue=jnp.zeros((stops.shape[0], fatigue_size(model, fatigue))),
+        onsets=(jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, -1)),
+        n_onsets=jnp.asarray(0),
+        events=jnp.asarray(0),
+        steps=jnp.asarray(0),
+        rejected=jnp.asarray(0),
+        done=jnp.asarray(False),
+        result=RESULTS.successful,
+    )

@@ -1,0 +1,149 @@
+"""`simulate_one_loop` and ``sweep(solve="one_loop")`` against `simulate`.
+
+Both integrate the same equations with diffrax's Tsit5 tableau, the same PID controller and the
+same event rules, but in other step sequences (`simulate` restarts a segment at each event and
+stop with a fresh step size; the one loop goes on with the controller's proposal), so they agree
+to the solver's accuracy, not to the last bit. The tolerances below follow from that:
+
+- a peak is a maximum over the points the steps record (each step's end and its 3
+  Gauss–Legendre points); with other steps these points lie elsewhere on the curve, and the peak
+  ball load of the paper's case moves by up to 2e-4 relative between two such runs (measured
+  with 0.2 s: 1.9e-4; the impact and bearing peaks 3e-5). 5e-4 allows for that;
+- integrals (the RMS force) are quadratures of the interpolants; after the impact the two
+  trajectories differ by more than the step tolerance (measured: 1.7e-5 relative at 20 µm
+  clearance): 1e-4;
+- contact onsets are located to 1e-13 s on each run's own trajectory; positions of the two runs
+  differ by ~1e-9 m, at approach speeds of 0.1–2 m/s: times within 1e-8 s; the approach
+  speeds, velocities after a sequence of contacts, by up to 1.5e-5 m/s (measured): 5e-5 m/s.
+
+One span (0.1 s: the first impact's six contact onsets lie in 0.0913–0.0935 s) and one
+``window_edges`` for every one-loop run, so that they share one compiled solve.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxbearing as jb
+
+T1 = 0.1
+EDGES = (0.09,)  # a window [0.09, t1] around the first impact, besides the default t >= 0.04 s
+PEAK_TOLERANCE = 5e-4
+INTEGRAL_TOLERANCE = 1e-4
+ONSET_TOLERANCE = 1e-8  # [s]
+SPEED_TOLERANCE = 5e-5  # [m/s]
+
+
+def _metrics(sol):
+    values = {name: float(fn(sol)) for name, fn in jb.metrics.STANDARD.items()}
+    values["peak_ball_load_late"] = float(jb.metrics.peak_ball_load(sol, t_min=EDGES[0]))
+    return values
+
+
+def _assert_metrics_close(one_loop, segments):
+    for name, value in _metrics(segments).items():
+        tolerance = INTEGRAL_TOLERANCE if name.startswith("rms") else PEAK_TOLERANCE
+        assert _metrics(one_loop)[name] == pytest.approx(value, rel=tolerance), name
+
+
+@pytest.fixture(scope="module")
+def paper_case():
+    model = jb.cases.xu2014()
+    one_loop = jb.simulate_one_loop(model, T1, window_edges=EDGES)
+    segments = jb.simulate(model, T1, [0.0, T1], window_edges=EDGES)
+    return model, one_loop, segments
+
+
+def test_metrics_agree_with_simulate(paper_case):
+    _, one_loop, segments = paper_case
+    assert float(jb.metrics.peak_impact_force(segments)) > 1000.0  # the impact is in the span
+    _assert_metrics_close(one_loop, segments)
+
+
+def test_contact_onsets_agree_with_simulate(paper_case):
+    _, one_loop, segments = paper_case
+    found = [np.asarray(c.time)[np.asarray(c.valid)] for c in (one_loop.contacts, segments.contacts)]
+    speeds = [np.asarray(c.approach_speed)[np.asarray(c.valid)] for c in (one_loop.contacts, segments.contacts)]
+    assert found[0].size == found[1].size == 6
+    np.testing.assert_allclose(found[0], found[1], rtol=0.0, atol=ONSET_TOLERANCE)
+    np.testing.assert_allclose(speeds[0], speeds[1], rtol=0.0, atol=SPEED_TOLERANCE)
+
+
+def test_outputs_are_the_two_ends(paper_case):
+    model, one_loop, segments = paper_case
+    np.testing.assert_array_equal(np.asarray(one_loop.ts), [0.0, T1])
+    np.testing.assert_array_equal(np.asarray(one_loop.q[0]), np.asarray(model.q0))
+    # the final states of two runs at rtol 1e-8: positions ~1e-9 m apart
+    np.testing.assert_allclose(one_loop.q[-1], segments.q[-1], rtol=0.0, atol=1e-7)
+    assert one_loop.result == jb.RESULTS.successful and float(one_loop.t_final) == T1
+    assert int(one_loop.num_steps) > int(one_loop.num_rejected_steps) > 0
+
+
+def test_sweep_members_agree_with_simulate_one_by_one(paper_case):
+    model, _, _ = paper_case
+    clearances = [20e-6, 80e-6]
+    ds = jb.sweep(model, {"bearing.clearance": clearances}, t1=T1, solve="one_loop",
+                  window_edges=EDGES, progress=False)
+    assert not bool(ds.failed.any())
+    for c in clearances:
+        point = jb.paths.replace(model, {"bearing.clearance": c})
+        reference = _metrics(jb.simulate(point, T1, [0.0, T1], window_edges=EDGES))
+        member = ds.sel({"bearing.clearance": c})
+        for name in jb.metrics.STANDARD:
+            tolerance = INTEGRAL_TOLERANCE if name.startswith("rms") else PEAK_TOLERANCE
+            assert float(member[name]) == pytest.approx(reference[name], rel=tolerance), (c, name)
+
+
+def test_a_failed_run_says_so(paper_case):
+    model, _, _ = paper_case
+    sol = jb.simulate_one_loop(model, T1, window_edges=EDGES, max_steps=50, throw=False)
+    assert sol.result == jb.RESULTS.max_steps_reached
+    assert 0.0 < float(sol.t_final) < T1
+    assert np.isfinite(np.asarray(sol.q[-1])).all()  # the state it reached, not NaN
+    with pytest.raises(jb.SimulationError, match="stopped at t ="):
+        jb.simulate_one_loop(model, T1, window_edges=EDGES, max_steps=50)
+
+
+def test_parameters_changed_after_construction_are_checked(paper_case):
+    model, _, _ = paper_case
+    bad = jb.paths.replace(model, {"bearing.clearance": -1e-6})  # as eqx.tree_at would
+    with pytest.raises(Exception, match="clearance"):
+        jb.simulate_one_loop(bad, T1, window_edges=EDGES)
+
+
+def test_derivatives_raise(paper_case):
+    model, _, _ = paper_case
+
+    def peak(c):
+        point = jb.paths.replace(model, {"bearing.clearance": c})
+        return jb.simulate_one_loop(point, T1, window_edges=EDGES).segments.peaks.max()
+
+    with pytest.raises(Exception, match="not differentiable: use simulate"):
+        jax.jvp(peak, (jnp.asarray(40e-6),), (jnp.asarray(1.0),))
+
+
+def test_a_model_without_events_agrees_with_simulate():
+    # no impact and the smooth ball force: no event at all, the loop only steps
+    model = jb.cases.xu2014(impact=False, ball_force="smooth")
+    assert not model.contacts and model.n_switched_balls == 0
+    _assert_metrics_close(
+        jb.simulate_one_loop(model, T1, window_edges=EDGES),
+        jb.simulate(model, T1, [0.0, T1], window_edges=EDGES),
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        (dict(segment_steps=4), TypeError, "forwards only simulate_one_loop's"),
+        (dict(ts=[0.0, T1]), ValueError, "keeps no output times"),
+        (dict(metrics={"ball": lambda sol: jnp.max(sol.ball_loads)}), ValueError, "keeps no output samples"),
+        (dict(solve="loop"), ValueError, "solve must be one of"),
+    ],
+)
+def test_sweep_refuses_what_one_loop_cannot_do(kwargs, error, match):
+    model = jb.cases.xu2014()
+    kwargs = dict(dict(solve="one_loop"), **kwargs)
+    with pytest.raises(error, match=match):
+        jb.sweep(model, {"bearing.clearance": [20e-6]}, t1=T1, progress=False, **kwargs)
