@@ -1,13 +1,14 @@
 """Trace short runs of the paper's case on JAX's default device (jax.profiler): one simulation,
 and optionally sweeps of several batch sizes; count the device kernels and sum their times.
 
-    python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096] [--stages-written]
+    python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096] [--stages-written] [--one-loop]
 
 Writes the traces under ``OUT_DIR`` and prints, for each run, the wall time of a call after
 compilation (untraced), then from a traced call: the device kernels (events on the GPU's stream
 lines; on the CPU nothing is counted), the time they kept the device busy, and the kernels that
 took the most of it. For the single run also steps and kernels a step. ``--stages-written``:
 the same with `WrittenTsit5` instead of diffrax's Tsit5 (docs/performance.md, 2026-11-26).
+``--one-loop``: `jaxbearing.simulate_one_loop`, and sweeps with ``solve="one_loop"``.
 """
 
 import argparse
@@ -91,10 +92,12 @@ def _summary(events, wall):
         print(f"    {total:8.3f} s {count:8d} x {1e6 * total / count:9.1f} us  {name[:90]}")
 
 
-def main(out, t1, sweeps, solver=None):
+def main(out, t1, sweeps, solver=None, one_loop=False):
     model = jb.cases.xu2014(impact=True)
     ts = np.array([0.0, t1])
     single = lambda: jb.simulate(model, t1, ts, solver=solver)  # noqa: E731
+    if one_loop:
+        single = lambda: jb.simulate_one_loop(model, t1)  # noqa: E731
     wall, sol, events = _profiled(single, Path(out) / "single")
     steps = int(sol.num_steps) + int(sol.num_rejected_steps)
     print(f"device {jax.devices()[0].device_kind}, one simulation of {t1} s: {wall:.3f} s untraced, {steps} steps "
@@ -108,10 +111,8 @@ def main(out, t1, sweeps, solver=None):
             "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, n),
             "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, n),
         }
-        run = lambda: jb.sweep(  # noqa: E731
-            model, grid, t1=t1, progress=False, chunk_size=n * n, max_segments=max_segments,
-            solver=solver,
-        )
+        settings = dict(solve="one_loop") if one_loop else dict(max_segments=max_segments, solver=solver)
+        run = lambda: jb.sweep(model, grid, t1=t1, progress=False, chunk_size=n * n, **settings)  # noqa: E731
         start = time.perf_counter()
         wall, ds, events = _profiled(run, Path(out) / f"sweep{n * n}")
         print(f"sweep of {n * n} points, {t1} s: {wall:.3f} s untraced = {n * n / wall:.0f} simulations/s "
@@ -127,6 +128,7 @@ if __name__ == "__main__":
     parser.add_argument(
         "--stages-written", action="store_true", help="WrittenTsit5 instead of diffrax's Tsit5"
     )
+    parser.add_argument("--one-loop", action="store_true", help="simulate_one_loop, sweeps with solve='one_loop'")
     args = parser.parse_args()
     solver = WrittenTsit5() if args.stages_written else None
-    main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s], solver)
+    main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s], solver, args.one_loop)

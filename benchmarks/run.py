@@ -2,8 +2,8 @@
 
     python benchmarks/run.py [--repeats 5] [--json benchmarks/results.json] [--quick]
                              [--only single,outputs,gradient,scipy,sweep]
-    python benchmarks/run.py --only gpu [--gpu-parts single,gradient,sweep,variants]
-                             [--gpu-batches 256,1024,4096,16384,65536]
+    python benchmarks/run.py --only gpu [--gpu-parts single,gradient,sweep,variants,one_loop]
+                             [--gpu-batches 256,1024,4096,16384,65536] [--reference-file F]
 
 What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
 
@@ -290,6 +290,8 @@ def _sweep(args):
     }
     ts = np.linspace(0.0, args.t1, args.sweep_ts) if args.sweep_ts else None  # None: the sweep's default
     kwargs = dict(t1=args.t1, ts=ts, progress=False, chunk_size=args.chunk_size or None)
+    if args.one_loop:
+        kwargs["solve"] = "one_loop"
     start = time.perf_counter()
     ds = jb.sweep(model, grid, **kwargs)
     first = time.perf_counter() - start
@@ -318,6 +320,7 @@ def _sweep(args):
         first_call_s=first,
         throughput=None if wall is None else points / wall,
         failed=int(ds.failed.sum()),
+        solve="one_loop" if args.one_loop else "segments",
         relative_error=errors,
         accurate=bool(max(errors.values()) <= 1e-3 and int(ds.failed.sum()) == 0),
     )
@@ -371,7 +374,7 @@ def _scipy(args):
 
 GROUPS = ("single", "outputs", "gradient", "scipy", "sweep", "gpu")
 CPU_GROUPS = GROUPS[:-1]  # the default; "gpu" runs alone (--only gpu) into results_gpu.json
-GPU_PARTS = ("single", "gradient", "sweep", "variants")
+GPU_PARTS = ("single", "gradient", "sweep", "variants", "one_loop")
 ITEMS = {
     "reference": _reference,
     "single": _single,
@@ -426,7 +429,7 @@ def measure(args, results) -> dict:
         output_times=N_TS,
         rtol=RTOL,
         atol=ATOL,
-        reference=_child("reference", settings),
+        reference=_reference_row(args, settings),
     )
     if "single" in args.only:
         _singles(args, settings, results)
@@ -502,6 +505,17 @@ def _scipy_rows(args, settings, results):
         )
 
 
+def _reference_row(args, settings):
+    """Compute the reference runs into ``args.reference``, unless ``--reference-file`` names one
+    that exists (computed before with the same --t1: the GPU group reuses the CPU's)."""
+    if args.reference_file and Path(args.reference_file).exists():
+        return {"reused": str(args.reference_file)}
+    row = _child("reference", settings)
+    if args.reference_file:
+        Path(args.reference_file).write_bytes(Path(args.reference).read_bytes())
+    return row
+
+
 def _sweep_rows(args, settings, results):
     results["sweep"] = []
     print("\nsweep throughput")
@@ -522,7 +536,8 @@ def _gpu_rows(args, settings, results):
     CUDA-graph loops, and sweep throughput against batch size (one chunk of all points)."""
     gpu = results.setdefault("gpu", {})
     parts = args.gpu_parts.split(",")
-    flags = {"default": "", "command buffers": COMMAND_BUFFERS}
+    flags = {"default": "", "command buffers": COMMAND_BUFFERS, "one loop": "",
+             "one loop, command buffers": COMMAND_BUFFERS}
     if "single" in parts:
         gpu["single"] = []
         print("\nGPU: one simulation after compilation (Tsit5, paper ball force)")
@@ -553,6 +568,9 @@ def _gpu_rows(args, settings, results):
         runs += [(batch, GPU_SWEEP_TS, label) for batch in map(int, args.gpu_batches.split(","))]
     if "variants" in parts:  # at 4096 points: dense outputs, and CUDA-graph loops
         runs += [(4096, N_TS, "default"), (4096, GPU_SWEEP_TS, "command buffers")]
+    if "one_loop" in parts:  # the same sweeps with solve="one_loop"
+        label = "one loop, command buffers" if args.gpu_command_buffers else "one loop"
+        runs += [(batch, GPU_SWEEP_TS, label) for batch in map(int, args.gpu_batches.split(","))]
     if runs:
         gpu.setdefault("sweep", [])
         print("\nGPU: sweep throughput (one chunk of all points)")
@@ -560,7 +578,7 @@ def _gpu_rows(args, settings, results):
         n = int(round(batch**0.5))
         row = _child(
             "sweep", settings, platform="gpu", xla_flags=flags[label], sweep_n=n, chunk_size=n * n,
-            sweep_ts=n_ts, once=n * n > args.gpu_repeat_max,
+            sweep_ts=n_ts, once=n * n > args.gpu_repeat_max, one_loop=label.startswith("one loop"),
         )
         row["label"] = label
         gpu["sweep"].append(row)
@@ -645,6 +663,8 @@ def main(argv=None):
     parser.add_argument("--method")
     parser.add_argument("--sweep-ts", type=int, default=0, help="output times of a sweep member (0: the sweep's default)")
     parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
+    parser.add_argument("--one-loop", action="store_true", help='a sweep with solve="one_loop"')
+    parser.add_argument("--reference-file", help="reference runs: reuse this npz if it exists, else write it")
     parser.add_argument("--plain-loops", action="store_true",
                         help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
     parser.add_argument("--entries", action="store_true",
@@ -678,7 +698,8 @@ def main(argv=None):
     keep = set(args.only) != set(CPU_GROUPS) and path.exists()
     results = json.loads(path.read_text()) if keep else {}
     with tempfile.TemporaryDirectory() as tmp:
-        args.reference = str(Path(tmp) / "reference.npz")
+        reuse = args.reference_file and Path(args.reference_file).exists()
+        args.reference = args.reference_file if reuse else str(Path(tmp) / "reference.npz")
         start = time.perf_counter()
         measure(args, results)
         results["total_s"] = time.perf_counter() - start
