@@ -38,6 +38,20 @@ def test_empty_window_is_nan_and_warns_under_jit(name, short):
     assert np.isnan(value)
 
 
+@pytest.mark.parametrize("name", ["peak_ball_load", "rms_bearing_force"])
+def test_a_vmapped_metric_does_not_grow_with_the_batch(name, short):
+    """The warning's callback gets unbatched operands: with batched ones vmap unrolls it into one
+    call a member, and a sweep's program (and its compile time) grew with its chunk."""
+
+    def scaled(x):  # a batch of solutions: their records and times batched, as in a sweep
+        where = lambda s: (s.segments.peaks, s.segments.t_start, s.segments.t_end)  # noqa: E731
+        return ALL[name](eqx.tree_at(where, short, tuple(a * x for a in where(short))))
+
+    programs = [jax.jit(jax.vmap(scaled)).lower(jnp.ones(n)).as_text() for n in (2, 64)]
+    assert programs[0].count("\n") == programs[1].count("\n")
+    assert programs[1].count("callback") == programs[0].count("callback") > 0
+
+
 def test_window_inside_the_span_has_a_value(short):
     assert np.isfinite(float(metrics.peak_ball_load(short, t_min=0.0)))
     assert np.isfinite(float(jax.jit(lambda s: metrics.rms_bearing_force(s, t_min=0.0))(short)))
