@@ -129,10 +129,12 @@ def _check_not_empty(filled, t_min, t_max, first, last, what):
         return
     # the callback's operands unbatched (the latest window start and the shortest span of a
     # batch): with batched ones vmap unrolls the callback into one a member, and the compiled
-    # program grew with the batch (docs/performance.md, 2026-11-26)
-    lo = eqxi.unvmap_max(jnp.asarray(-jnp.inf if t_min is None else t_min))
-    hi = -eqxi.unvmap_max(-jnp.asarray(jnp.inf if t_max is None else t_max))
-    bounds = (lo, hi, -eqxi.unvmap_max(-jnp.asarray(first)), -eqxi.unvmap_max(-jnp.asarray(last)))
+    # program grew with the batch (docs/performance.md, 2026-11-26); no derivative: the warning
+    # only reads them
+    latest = lambda x: eqxi.unvmap_max(jax.lax.stop_gradient(jnp.asarray(x)))  # noqa: E731
+    lo = latest(-jnp.inf if t_min is None else t_min)
+    hi = -latest(-jnp.asarray(jnp.inf if t_max is None else t_max))
+    bounds = (lo, hi, -latest(-jnp.asarray(first)), -latest(-jnp.asarray(last)))
     warn = functools.partial(_warn_empty_window, what=what)
     jax.lax.cond(
         eqxi.nonbatchable(eqxi.unvmap_any(~filled)),

@@ -33,6 +33,7 @@ PEAK_TOLERANCE = 5e-4
 INTEGRAL_TOLERANCE = 1e-4
 ONSET_TOLERANCE = 1e-8  # [s]
 SPEED_TOLERANCE = 5e-5  # [m/s]
+LIFE_TOLERANCE = 5e-4
 
 
 def _metrics(sol):
@@ -78,6 +79,15 @@ def test_outputs_are_the_two_ends(paper_case):
     np.testing.assert_allclose(one_loop.q[-1], segments.q[-1], rtol=0.0, atol=1e-7)
     assert one_loop.result == jb.RESULTS.successful and float(one_loop.t_final) == T1
     assert int(one_loop.num_steps) > int(one_loop.num_rejected_steps) > 0
+
+
+def test_bearing_lives_agree_with_simulate(paper_case):
+    # L10 goes as the equivalent load to the power -3 (ISO) or about -10/3 (Lundberg–Palmgren):
+    # the integrals' 1e-4 becomes a few 1e-4 in the life
+    model, one_loop, segments = paper_case
+    for method, kwargs in (("iso", {}), ("lp", {"groove_inner": 0.5219, "groove_outer": 0.5194})):
+        life = jb.life.metric(method, **kwargs)
+        assert float(life(one_loop, model)) == pytest.approx(float(life(segments, model)), rel=LIFE_TOLERANCE)
 
 
 def test_sweep_members_agree_with_simulate_one_by_one(paper_case):

@@ -50,6 +50,9 @@ def test_a_vmapped_metric_does_not_grow_with_the_batch(name, short):
     programs = [jax.jit(jax.vmap(scaled)).lower(jnp.ones(n)).as_text() for n in (2, 64)]
     assert programs[0].count("\n") == programs[1].count("\n")
     assert programs[1].count("callback") == programs[0].count("callback") > 0
+    # and the metric stays differentiable, in both modes
+    jax.jit(jax.vmap(jax.grad(scaled))).lower(jnp.ones(2))
+    jax.jit(jax.vmap(lambda x: jax.jvp(scaled, (x,), (1.0,)))).lower(jnp.ones(2))
 
 
 def test_window_inside_the_span_has_a_value(short):
