@@ -13,7 +13,7 @@ from jax.sharding import NamedSharding, PartitionSpec as P
 
 from .. import metrics as _metrics, paths
 from ..solution import RESULTS
-from .arguments import SOLVES
+from ..solve import simulate, simulate_one_loop
 
 AXIS = "d"  # name of the device axis of the mesh
 SUCCESS = int(RESULTS.successful._value)
@@ -93,10 +93,10 @@ def _to_host(tree):
 def _member(model, row, ts, names, metric_items, t1, sim_kwargs, solve):
     """(metrics (n_metrics,), result code) of one point; NaN metrics where the solve failed."""
     m = paths.replace(model, dict(zip(names, row)))
-    if solve == "one_loop":
-        sol = SOLVES[solve](m, t1, throw=False, **sim_kwargs)
+    if solve == "one_loop":  # no output times
+        sol = simulate_one_loop(m, t1, throw=False, **sim_kwargs)
     else:
-        sol = SOLVES[solve](m, t1, ts, throw=False, **sim_kwargs)
+        sol = simulate(m, t1, ts, throw=False, **sim_kwargs)
     code = jnp.asarray(sol.result._value, jnp.int32)
     ok = code == SUCCESS
     outs = []

@@ -31,7 +31,6 @@ t0 and the time reached) and is not differentiable (use `simulate`). Where `simu
 from __future__ import annotations
 
 import functools
-import numbers
 from typing import NamedTuple
 
 import diffrax
@@ -42,11 +41,21 @@ import jax.numpy as jnp
 from .. import _checks
 from ..compile import jit
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, WINDOW_START, Contacts, SegmentStats
-from ._recording import _accelerations, _add, _forces, _peaks, _step_stats, fatigue_size, peak_size
+from ..solution import RESULTS, Contacts, SegmentStats
+from ._recording import (
+    INTEGRALS,
+    _accelerations,
+    _add,
+    _forces,
+    _peaks,
+    _step_stats,
+    fatigue_size,
+    peak_size,
+)
 from ._segment import EVENT_TIME_TOLERANCE, _ITPState, _switch, event_values, itp_start, itp_step
 from ._simulate import (
     INITIAL_STEP,
+    _check_max_steps,
     _checked_span,
     _checked_tolerances,
     _fatigue_stats,
@@ -54,6 +63,8 @@ from ._simulate import (
     _outputs,
     _raise_on_failure,
     _where_rows,
+    checked_start,
+    window_stops,
 )
 from ._stops import _stops
 
@@ -100,9 +111,8 @@ def simulate_one_loop(
     _checks.raise_if_concrete(_checks.finite_leaves(model))
     t0, t1 = _checked_span(t0, t1)
     rtol, atol = _checked_tolerances(rtol, atol)
-    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
-        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
-    stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    _check_max_steps(max_steps)
+    stops = window_stops(window_edges)
     sol = _one_loop(model, t0, t1, rtol, atol, jnp.asarray(max_steps), stops, bool(fatigue))
     return _raise_on_failure(sol, t1) if throw else sol
 
@@ -166,9 +176,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
     model, t0, t1 = eqxi.nondifferentiable(
         (model, t0, t1), msg="simulate_one_loop is not differentiable: use simulate."
     )
-    rules = model.violations()
-    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
-    y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+    y0 = checked_start(model, t0, t1)
     n = model.n_coordinates
     stops = _stops(t0, t1, 1, extra_stops)
     controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
@@ -229,7 +237,8 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         control = jax.tree_util.tree_map(lambda a, b: jnp.where(stepping & finite, a, b), control, s.control)
         crossed = jnp.zeros((), bool)
         if has_events:
-            crossed = keep & (event_max(t_b, y1, s.in_contact, s.engaged) > 0)
+            value_b = event_max(t_b, y1, s.in_contact, s.engaged)
+            crossed = keep & (value_b > 0)
         accept = stepping & keep & ~crossed
         start = stepping & keep & crossed
 
@@ -253,7 +262,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         result = RESULTS.where(too_small, RESULTS.dt_min_reached, s.result)
         result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
         if has_events:
-            started = _start_root(event_max, s, t_b, y1)
+            started = itp_start(
+                s.t, t_b, event_max(s.t, s.y, s.in_contact, s.engaged), value_b, EVENT_TIME_TOLERANCE
+            )
             root = jax.tree_util.tree_map(lambda a, b: jnp.where(start, a, b), started, root)
         onset = located & record[3]
         slot = onset & (jnp.arange(ONSET_SLOTS) == s.n_onsets)
@@ -323,16 +334,8 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
 
 def _row(x, here):
     """The row of ``x`` (rows, m) where the one-hot ``here`` (rows,) is true: a sum of selects,
-    which a batch evaluates elementwise (a vmapped index is a gather, and XLA's compile time grew
-    with the batch size with one: docs/performance.md)."""
+    which a batch evaluates elementwise (a vmapped index would be a gather)."""
     return jnp.sum(jnp.where(here[:, None], x, 0.0), axis=0)
-
-
-def _start_root(event_max, s: _State, t_b, y1) -> _ITPState:
-    """The root finder's state for the event in the step [s.t, t_b] (as `_EventRoot.init`)."""
-    f_lower = event_max(s.t, s.y, s.in_contact, s.engaged)
-    f_upper = event_max(t_b, y1, s.in_contact, s.engaged)
-    return itp_start(s.t, t_b, f_lower, f_upper, EVENT_TIME_TOLERANCE)
 
 
 def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
@@ -364,7 +367,7 @@ def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
         root=root,
         root_steps=jnp.asarray(0),
         peaks=peaks,
-        integrals=jnp.zeros((stops.shape[0], 5)),
+        integrals=jnp.zeros((stops.shape[0], INTEGRALS)),
         fatigue=jnp.zeros((stops.shape[0], fatigue_size(model, fatigue))),
         onsets=(jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, -1)),
         n_onsets=jnp.asarray(0),

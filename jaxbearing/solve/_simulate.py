@@ -184,8 +184,7 @@ def simulate(
     ts = _bucketed(ts)
     if segment_steps is not None and not 1 <= segment_steps:
         raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
-    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
-        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
+    _check_max_steps(max_steps)
     if max_segments is None:
         max_segments = default_max_segments(model, *span, segment_steps)
     segment_steps = min(SEGMENT_STEPS if segment_steps is None else int(segment_steps), max_steps)
@@ -205,7 +204,7 @@ def simulate(
         rtol, atol = _checked_tolerances(rtol, atol)
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
     solver = _with_root_tolerances(solver, stepsize_controller)
-    stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    stops = window_stops(window_edges)
     sol = _with_adjoint(
         adjoint,
         segment_steps,
@@ -309,6 +308,26 @@ def _with_adjoint(adjoint, segment_steps, solve, *args):
         ) from err
 
 
+def _check_max_steps(max_steps):
+    """A `ValueError` unless ``max_steps`` is an integer >= 1."""
+    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
+        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
+
+
+def window_stops(window_edges) -> jax.Array:
+    """The stops a solve adds to its time cells: `WINDOW_START` and the ``window_edges`` [s]."""
+    return jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+
+
+def checked_start(model, t0, t1, more=()):
+    """The initial state [q0, qd0], carrying the model's rules, t1 > t0 and ``more`` rules
+    (checked at run time, under jit, vmap and grad: `_checks.enforce`)."""
+    rules = model.violations()
+    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
+    rules.extend(more)
+    return _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+
+
 def _checked_span(t0, t1):
     """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
     or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
@@ -370,13 +389,11 @@ def _simulate(
     model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells,
     extra_stops, block, fatigue, progress, adjoint,
 ):
-    rules = model.violations()
-    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
-    rules.append(
-        ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]),
-         "ts must be increasing and lie within [t0, t1]", ts)
+    y0 = checked_start(
+        model, t0, t1,
+        [((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]),
+          "ts must be increasing and lie within [t0, t1]", ts)],
     )
-    y0 = _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
     n = model.n_coordinates
     elimination = "entries" if entry_elimination() else "dense"
 
