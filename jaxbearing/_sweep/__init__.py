@@ -36,7 +36,9 @@ How it runs
   finishes: points that need many steps slow down their chunk, not the others.
 - ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a
   member, no segments and no output times, for large batches on accelerators (README, *On a
-  GPU*); its metrics agree with `simulate`'s to the solver's accuracy, not to the last bit. It
+  GPU*); its metrics agree with `simulate`'s to the solver's accuracy, not to the last bit, and may
+  move within that accuracy with the chunk a point runs in (the default keeps a member equal to
+  its point run alone). It
   takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
   ``"solve": "one_loop"`` in the manifest.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics

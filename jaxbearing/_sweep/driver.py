@@ -59,7 +59,8 @@ def sweep(
         solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
             `simulate_one_loop` run (one while loop a member, no output times: for large
             batches on accelerators; its metrics agree with `simulate`'s to the solver's
-            accuracy, not to the last bit). It takes ``t0``, ``rtol``, ``atol``, ``max_steps``,
+            accuracy, not to the last bit, and may move within that accuracy with the chunk a
+            point runs in, which XLA compiles as another batch). It takes ``t0``, ``rtol``, ``atol``, ``max_steps``,
             ``window_edges`` and ``fatigue``, and only metrics of the solve's records.
         **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
             max_steps, max_segments, adjoint, ...); ``throw`` and ``progress`` are set by the
