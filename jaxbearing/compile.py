@@ -16,7 +16,7 @@ elsewhere.
 
 `sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
 point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
-single kernels round differently (a metric 4e-5 apart), and batches ran no faster.
+single kernels round differently (README), and batches ran no faster.
 
 One more setting makes a simulation much cheaper on the CPU (README, *Performance and solvers*),
 and `jit` cannot pass it: XLA:CPU runs a program as a sequence of kernel calls, each with a fixed

@@ -148,7 +148,9 @@ class Solution(eqx.Module):
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
         num_steps, num_rejected_steps: solver steps over all segments.
-        num_segments: number of segments used (time cells plus contact events).
+        num_segments: segments used: one per stop interval (time cells, `WINDOW_START`,
+            ``window_edges``), plus one per event (contact onset or separation, ball engagement
+            or release) and per pause (``segment_steps``).
         target: index in q of the x coordinate of the impact target, body k of the model's
             first contact (`CircleContact`: the body its normal force pushes along +n); None
             for a model without impact contact (static).

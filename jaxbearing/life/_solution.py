@@ -347,4 +347,4 @@ def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Arra
 
 
 _l10.sample_free = True  # reads sol.fatigue, not the output samples (`_sweep.needs_samples`)
-_l10.reads_fatigue = True  # sweeps record sol.fatigue for it (`_sweep.needs_fatigue`)
+_l10.reads_fatigue = True  # sweeps record sol.fatigue for it (`_sweep.arguments.needs_fatigue`)
