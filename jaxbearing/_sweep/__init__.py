@@ -25,13 +25,16 @@ How it runs
 - Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is
   one call of a jitted ``shard_map(vmap(point -> metrics))`` over a 1-D mesh of all JAX devices
   (``jax.devices()``), so each device integrates its own members in its own loop; the chunk is
-  padded to a multiple of the device count by repeating its last point (the padding is dropped).
+  padded to a multiple of the device count, and to at least 2 points a device, by repeating its
+  last point (the padding is dropped): XLA compiles a batch of one as a program of its own,
+  whose members would round differently (`arguments.padded_rows`).
   All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
   of the same model structure, metrics and solver settings in the same process). Memory stays
   bounded by the chunk, whatever the number of points.
 - Under vmap the members run in lock-step, segment by segment. Members pause every
   `SEGMENT_STEPS` steps (``simulate(..., segment_steps=...)``, a pause resumes exactly: a member's
-  result is that of the point run alone, to the last bit), so at each of its events a member
+  solution is that of the point run alone, to the last bit; the recorded peaks and integrals that
+  the metrics read may round differently in the last bits), so at each of its events a member
   waits for the others at most that many steps; a chunk still runs until its slowest member
   finishes: points that need many steps slow down their chunk, not the others.
 - ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a

@@ -88,7 +88,7 @@ def sweep(
     metric_names = [name for name, _ in request.metric_items]
     state = store.restore(out, record, chunk_size, chunk_points, n_devices, request.points, metric_names)
     mesh = jax.make_mesh((n_devices,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
-    runner = kernel.ChunkRunner(model, request, mesh, math.ceil(state.chunk_points / n_devices) * n_devices)
+    runner = kernel.ChunkRunner(model, request, mesh, arguments.padded_rows(state.chunk_points, n_devices))
     computed, chunk_seconds = _compute(runner, request, state, out, metric_names, progress)
     ds = _dataset.dataset(request, state, record)
     _finish(ds, out, request.points.shape[0])
