@@ -49,6 +49,17 @@ def as_float(value, name: str, unit: str) -> jax.Array:
     )
 
 
+def require_scalars(module, fields) -> None:
+    """A `ValueError` now for the first of ``fields`` (names of ``module``'s parameters) that is
+    not one number: a value set after construction (`eqx.tree_at`) is not converted, and shapes
+    are known at trace time, so this holds under jit and vmap as well."""
+    for field in fields:
+        value = getattr(module, field)
+        if isinstance(value, (str, bytes, bool, np.bool_)) or value is None or np.ndim(value) != 0:
+            shape = f"shape {np.shape(value)}" if hasattr(value, "shape") else repr(value)
+            raise ValueError(f"{type(module).__name__}.{field} must be one number; got {shape}.")
+
+
 def as_floats(*specs) -> tuple[jax.Array, ...]:
     """`as_float` of each ``(value, name, unit)``."""
     return tuple(as_float(value, name, unit) for value, name, unit in specs)

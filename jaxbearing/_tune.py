@@ -38,8 +38,13 @@ from .solve import simulate
 from .compile import jit
 
 
-def _values(model, names: Sequence[str]) -> jax.Array:
-    return jnp.stack([jnp.asarray(_paths.get(model, n), jnp.float64) for n in names])
+def _values(model, names: Sequence[str], purpose: str) -> jax.Array:
+    """The named parameters' values, (len(names),); a `ValueError` unless ``names`` are distinct
+    paths to scalar array leaves (at least one)."""
+    if isinstance(names, str) or not names:
+        raise ValueError(f"names must be a non-empty list of parameter paths; got {names!r}.")
+    _paths.check_distinct(model, names)
+    return jnp.stack([jnp.asarray(_paths.scalar_leaf(model, n, purpose), jnp.float64) for n in names])
 
 
 def _set(model, names: Sequence[str], values):
@@ -70,8 +75,9 @@ def sensitivity(
     """
     if mode not in ("forward", "reverse"):
         raise ValueError(f"mode must be 'forward' or 'reverse'; got {mode!r}.")
-    names = tuple(names)
-    value, grad = _value_and_grad(model, _values(model, names), metric, names, t1, ts, mode, simulate_kwargs)
+    names = tuple(names) if not isinstance(names, str) else names
+    x = _values(model, names, "to be differentiated")
+    value, grad = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
     return value, {n: grad[i] for i, n in enumerate(names)}
 
 
@@ -141,13 +147,20 @@ def tune(
         scale: {name: scale} in parameter units.
         callback: called as ``callback(step, loss, {name: value})`` after each evaluation.
     """
-    names = list(names)
+    names = list(names) if not isinstance(names, str) else names
     if steps < 1:
         raise ValueError(f"steps must be at least 1; got {steps}.")
-    x0 = _values(model, names)
+    x0 = _values(model, names, "to be tuned")
+    for what, given in (("scale", scale), ("bounds", bounds)):
+        unknown = sorted(set(given or {}) - set(names))
+        if unknown:
+            raise ValueError(f"{what} names {unknown}, which are not among the tuned names {names}.")
     scales = jnp.asarray(
         [float((scale or {}).get(n, abs(float(x0[i])) or 1.0)) for i, n in enumerate(names)]
     )
+    for n, s in zip(names, np.asarray(scales)):
+        if not (np.isfinite(s) and s > 0):
+            raise ValueError(f"scale of {n} must be a finite number > 0 (in its units); got {s}.")
     lo = jnp.asarray([(bounds or {}).get(n, (-jnp.inf, jnp.inf))[0] for n in names], jnp.float64)
     hi = jnp.asarray([(bounds or {}).get(n, (-jnp.inf, jnp.inf))[1] for n in names], jnp.float64)
     for i, n in enumerate(names):

@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import math
 import sys
 import time
 from pathlib import Path
@@ -65,18 +66,19 @@ def build_parser() -> argparse.ArgumentParser:
         "summary and Table 5; write CSV, summary.json and Figs. 12-15 into --out.",
     )
     p.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
-    p.add_argument("--t1", type=float, default=0.2, help="final time [s] (default 0.2)")
+    p.add_argument("--t1", type=_number(0.0, False), default=0.2, help="final time [s] (default 0.2)")
     p.add_argument(
         "--samples",
-        type=int,
+        type=_count(2),
         default=None,
         help="number of output times over [0, t1] (default: one every 1 µs, 200001 for 0.2 s)",
     )
     p.add_argument(
-        "--csv-dt", type=float, default=DEFAULT_CSV_DT, help="CSV row spacing [s] (default 1e-5)"
+        "--csv-dt", type=_number(0.0, False), default=DEFAULT_CSV_DT,
+        help="CSV row spacing [s] (default 1e-5)",
     )
-    p.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (default 1e-8)")
-    p.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance (default 1e-10)")
+    p.add_argument("--rtol", type=_number(0.0, True), default=1e-8, help="relative tolerance (default 1e-8)")
+    p.add_argument("--atol", type=_number(0.0, True), default=1e-10, help="absolute tolerance (default 1e-10)")
     p.add_argument(
         "--no-rerun",
         action="store_true",
@@ -94,6 +96,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _number(low: float, inclusive: bool):
+    """An argparse type: a finite number above ``low`` (or equal to it, if ``inclusive``)."""
+    bound = f">= {low:g}" if inclusive else f"> {low:g}"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and (value >= low if inclusive else value > low)):
+            raise argparse.ArgumentTypeError(f"must be a finite number {bound}; got {text!r}")
+        return value
+
+    return parse
+
+
+def _count(low: int):
+    """An argparse type: an integer of at least ``low``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = low - 1
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be an integer of at least {low}; got {text!r}")
+        return value
+
+    return parse
+
+
 def run_xu2014(args) -> int:
     """The ``xu2014`` command: check the settings, then run, report and write each case."""
     from .compile import enable_entry_elimination, enable_loop_kernels
@@ -109,6 +142,9 @@ def run_xu2014(args) -> int:
         overrides, source, models = _models(args, config)
     except config.ConfigError as err:
         print(f"jaxbearing xu2014: {err}", file=sys.stderr)
+        return 2
+    if args.rtol == 0.0 and args.atol == 0.0:
+        print("jaxbearing xu2014: --rtol and --atol must not both be 0", file=sys.stderr)
         return 2
     ts, stride = _output_times(args)
     out = Path(args.out)
@@ -149,11 +185,7 @@ def _output_times(args):
     """(output times [s], CSV stride in samples) of the command's options."""
     import numpy as np
 
-    if not args.t1 > 0:
-        raise SystemExit(f"--t1 must be positive; got {args.t1}")
-    samples = args.samples if args.samples is not None else round(args.t1 / DEFAULT_DT) + 1
-    if samples < 2:
-        raise SystemExit(f"--samples must be at least 2; got {samples}")
+    samples = args.samples if args.samples is not None else max(2, round(args.t1 / DEFAULT_DT) + 1)
     dt = args.t1 / (samples - 1)
     return np.linspace(0.0, args.t1, samples), max(1, round(args.csv_dt / dt))
 

@@ -41,6 +41,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import warnings
+import numbers
 from collections.abc import Callable
 
 import equinox.internal as eqxi
@@ -264,7 +265,12 @@ def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=N
     impact contact has no target, and the value is 0 (nothing is struck), as
     `peak_impact_force`'s."""
     if coordinate is not None:
-        return _peak(sol, PEAK_DISPLACEMENT + coordinate, t_min, t_max)
+        n = sol.segments.peaks.shape[1] - PEAK_DISPLACEMENT
+        if isinstance(coordinate, bool) or not isinstance(coordinate, numbers.Integral) or not 0 <= coordinate < n:
+            raise ValueError(
+                f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
+            )
+        return _peak(sol, PEAK_DISPLACEMENT + int(coordinate), t_min, t_max)
     if sol.target is not None:
         return _peak(sol, PEAK_DISPLACEMENT + sol.target, t_min, t_max)
     return 0.0 * _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)  # NaN for a window without value

@@ -7,6 +7,8 @@ Module's ``violations()`` and are checked at construction and again inside `jaxb
 
 from __future__ import annotations
 
+import math
+import numbers
 from typing import Literal
 
 import equinox as eqx
@@ -68,14 +70,26 @@ class BallBearing(eqx.Module):
         ball_force: BallForce = "paper",
         damping_ramp=1e-6,
     ):
-        if int(n_balls) != n_balls or n_balls < 3:
-            raise ValueError(f"n_balls must be an integer of at least 3; got {n_balls}.")
+        if (
+            isinstance(n_balls, (bool, str))
+            or not isinstance(n_balls, numbers.Real)
+            or not math.isfinite(n_balls)
+            or int(n_balls) != n_balls
+            or n_balls < 3
+        ):
+            raise ValueError(f"n_balls must be an integer of at least 3; got {n_balls!r}.")
         if cage not in ("kinematic", "constant"):
             raise ValueError(f"cage must be 'kinematic' or 'constant'; got {cage!r}.")
         if ball_force not in ("paper", "smooth"):
             raise ValueError(f"ball_force must be 'paper' or 'smooth'; got {ball_force!r}.")
-        if exponent <= 1.0:
-            raise ValueError(f"exponent must exceed 1 (3/2 balls, 10/9 rollers); got {exponent}.")
+        if (
+            isinstance(exponent, (bool, str))
+            or not isinstance(exponent, numbers.Real)
+            or not (math.isfinite(exponent) and exponent > 1.0)
+        ):
+            raise ValueError(
+                f"exponent must be a finite number above 1 (3/2 balls, 10/9 rollers); got {exponent!r}."
+            )
         self.clearance = _checks.as_float(clearance, "bearing clearance", "m")
         self.stiffness = _checks.as_float(stiffness, "bearing stiffness", "N/m^n")
         self.damping = _checks.as_float(damping, "bearing damping", "N s/m")
@@ -135,6 +149,9 @@ class BallBearing(eqx.Module):
         )
 
     def violations(self):
+        _checks.require_scalars(
+            self, ("clearance", "stiffness", "damping", "inner_race_diameter", "outer_race_diameter", "damping_ramp")
+        )
         return [
             _checks.non_negative("bearing clearance", self.clearance, "m"),
             _checks.positive("bearing stiffness", self.stiffness, "N/m^n"),
@@ -187,6 +204,7 @@ class Impact(eqx.Module):
         return cls(stiffness=k, restitution=restitution, **kwargs)
 
     def violations(self):
+        _checks.require_scalars(self, ("stiffness", "restitution", "friction", "friction_v0", "friction_v1"))
         return [
             _checks.positive("impact stiffness", self.stiffness, "N/m^1.5"),
             _checks.in_half_open_interval("restitution", self.restitution, 0.0, 1.0),

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -38,8 +39,42 @@ def replace(model, values: Mapping[str, object]):
     names = list(values)
     for name in names:
         get(model, name)  # clear error for a bad path
+    check_distinct(model, names)
     where = lambda m: tuple(get(m, name) for name in names)  # noqa: E731
     return eqx.tree_at(where, model, tuple(_as_leaf(values[name]) for name in names))
+
+
+def scalar_leaf(model, path: str, purpose: str):
+    """The value at ``path``, which must be a scalar array leaf of ``model`` (a `ValueError`
+    otherwise, saying it is needed ``purpose``, e.g. ``"to be swept"``)."""
+    leaf = get(model, path)
+    if not eqx.is_array(leaf) or jnp.shape(leaf) != ():
+        raise ValueError(
+            f"Parameter {path!r} must be a scalar array leaf of the model {purpose}; got "
+            f"{type(leaf).__name__} {getattr(leaf, 'shape', '')}."
+        )
+    return leaf
+
+
+class _Tag:
+    """Stands in for a leaf, to tell which leaf a path reaches."""
+
+
+def check_distinct(model, names):
+    """A `ValueError` if two paths reach the same leaf (e.g. ``"bearing.clearance"`` and
+    ``"forces.0.bearing.clearance"`` of `cases.xu2014`): which value wins would be arbitrary."""
+    leaves, treedef = jax.tree_util.tree_flatten(model)
+    tagged = jax.tree_util.tree_unflatten(treedef, [_Tag() for _ in leaves])
+    seen = {}
+    for name in names:
+        reached = get(tagged, name)
+        for tag in jax.tree_util.tree_leaves(reached, is_leaf=lambda x: isinstance(x, _Tag)):
+            if seen.get(id(tag), name) != name or (id(tag) in seen and names.count(name) > 1):
+                raise ValueError(
+                    f"Parameter paths {seen[id(tag)]!r} and {name!r} name the same parameter; "
+                    "give it once."
+                )
+            seen[id(tag)] = name
 
 
 def _as_leaf(value):

@@ -5,6 +5,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 import jaxbearing as jb
@@ -108,7 +109,7 @@ BAD_INPUTS = [
     (lambda: from_geometry(groove_outer=0.45), r"groove_outer \(outer raceway groove curvature ratio f_o = r_o/D\) must exceed 0\.5; got 0\.45\."),
     (lambda: bearing(cage="free"), r"cage must be 'kinematic' or 'constant'; got 'free'\."),
     (lambda: bearing(ball_force="linear"), r"ball_force must be 'paper' or 'smooth'; got 'linear'\."),
-    (lambda: bearing(exponent=1.0), r"exponent must exceed 1 \(3/2 balls, 10/9 rollers\); got 1\.0\."),
+    (lambda: bearing(exponent=1.0), r"exponent must be a finite number above 1 \(3/2 balls, 10/9 rollers\); got 1\.0\."),
     # restitution, damping, friction
     (lambda: jb.Impact(1e10, 0.0), r"restitution must lie in \(0\.0, 1\.0\]; got 0\."),
     (lambda: jb.cases.xu2014(restitution=1.5), r"restitution must lie in \(0\.0, 1\.0\]; got 1\.5\."),
@@ -121,9 +122,9 @@ BAD_INPUTS = [
      r"friction_v1 must exceed friction_v0 \[m/s\]; got 0\.0001\."),
     # initial state
     (lambda: pendulum(q0=(0.4, 0.0, 0.0)),
-     r"initial positions q0 violate the joints by more than 1e-08 \(m or rad\): make q0 consistent with the joints; got 0\.1\."),
+     r"initial positions q0 violate the joints at t0 by more than 1e-08 \(m or rad\): make q0 consistent with the joints and drivers at t0; got 0\.1\."),
     (lambda: pendulum(speed=2.0),
-     r"initial velocities qd0 violate the joints by more than 1e-06 \(m/s or rad/s\): make qd0 consistent with the joints and drivers; got 2\."),
+     r"initial velocities qd0 violate the joints at t0 by more than 1e-06 \(m/s or rad/s\): make qd0 consistent with the joints and drivers at t0; got 2\."),
     # time span
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.0),
      r"t1 must be greater than t0 = 0\.0 s; got t1 = 0\.0 s\."),
@@ -135,9 +136,9 @@ BAD_INPUTS = [
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, 0.005, 0.002]),
      r"ts must be increasing \(equal neighbours allowed\) \[s\]; got ts\[2\] = 0\.002 after ts\[1\] = 0\.005\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [-0.001, 0.005]),
-     r"ts must lie within \[t0, t1\] = \[0, 0\.01\] s; got ts\[0\] = -0\.001\."),
+     r"ts must lie within \[t0, t1\] = \[0\.0, 0\.01\] s; got ts\[0\] = -0\.001\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, 0.011]),
-     r"ts must lie within \[t0, t1\] = \[0, 0\.01\] s; got ts\[1\] = 0\.011\."),
+     r"ts must lie within \[t0, t1\] = \[0\.0, 0\.01\] s; got ts\[1\] = 0\.011\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, [0.0, np.nan]), r"ts must be finite \[s\]; got ts\[1\] = nan\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, np.zeros((2, 3))),
      r"ts must be a 1-D array of at least one output time \[s\]; got shape \(2, 3\)\."),
@@ -196,7 +197,41 @@ BAD_INPUTS = [
      r"ball_diameter must be a number in SI units \[m\] \(a float or an array of floats\); got '8\.7 mm'\."),
     (lambda: jb.life.dynamic_load_rating(9, 8e-3, 39e-3, contact_angle="0 deg"),
      r"contact_angle must be a number in SI units \[rad\] \(a float or an array of floats\); got '0 deg'\."),
+    # one number where a scalar parameter belongs; static settings finite
+    (lambda: jb.cases.xu2014(clearance=[4e-5, 5e-5]), r"BallBearing\.clearance must be one number; got shape \(2,\)\."),
+    (lambda: bearing(exponent=float("nan")),
+     r"exponent must be a finite number above 1 \(3/2 balls, 10/9 rollers\); got nan\."),
+    (lambda: bearing(n_balls=float("inf")), r"n_balls must be an integer of at least 3; got inf\."),
+    # NaN geometry of the load ratings
+    (lambda: jb.life.dynamic_load_rating(9, float("nan"), 39e-3),
+     r"ball_diameter must be finite \(not NaN or infinite\); got nan\."),
+    # a contact switched on while its surfaces overlap
+    (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 1e-3),
+     r"contact 0 is switched on at t0 while its surfaces overlap \(penetration \[m\]\): start it apart, "
+     r"or switch it on later \(active_from\) when they are apart; got 0\.01\."),
+    # window edges, a metric's coordinate
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, window_edges=0.005),
+     r"window_edges must be a tuple of finite times \[s\] \(e\.g\. \(0\.09,\)\); got 0\.005\."),
+    (lambda: jb.metrics.max_target_displacement(_short_solution(), coordinate=-2),
+     r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
+    # parameter paths: one parameter named twice, a static setting, a non-positive scale
+    (lambda: jb.paths.replace(jb.cases.xu2014(), {"bearing.clearance": 1e-5, "forces.0.bearing.clearance": 2e-5}),
+     r"Parameter paths 'bearing\.clearance' and 'forces\.0\.bearing\.clearance' name the same parameter; give it once\."),
+    (lambda: jb.sensitivity(jb.cases.xu2014(), jb.metrics.peak_ball_load, ["bearing.n_balls"], 0.01),
+     r"Parameter 'bearing\.n_balls' must be a scalar array leaf of the model to be differentiated; got int \."),
+    (lambda: jb.tune(lambda m: 0.0, jb.cases.xu2014(), ["bearing.clearance"], optax.adam(0.1), 1,
+                     scale={"bearing.clearance": -4e-5}),
+     r"scale of bearing\.clearance must be a finite number > 0 \(in its units\); got -4e-05\."),
+    # sweeps check their span and output times before running anything
+    (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=float("inf")),
+     r"t1 must be a finite number \[s\]; got t1 = inf\."),
+    (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=0.01, ts=[0.0, np.nan]),
+     r"ts must be finite \[s\]; got ts\[1\] = nan\."),
 ]
+
+
+def _short_solution():
+    return jb.simulate(jb.cases.xu2014(impact=False), 1e-3, jnp.linspace(0.0, 1e-3, 3))
 
 
 @pytest.mark.parametrize("make, message", BAD_INPUTS)
@@ -234,6 +269,20 @@ def _run_with_clearance(c):
 def test_traced_bad_values_are_checked_under_vmap(bad, message):
     with pytest.raises(Exception, match=message):
         jax.vmap(_run_with_clearance)(jnp.array([4e-5, bad]))
+
+
+def test_initial_state_is_checked_at_t0():
+    """The crank's driver turns it at a fixed speed from t = 0: q0 is consistent at t0 = 0, not
+    at t0 = 5 ms, and a run started there would drift by the crank's turn since t = 0."""
+    model = jb.cases.xu2014(impact=False)
+    with pytest.raises(Exception, match="initial positions q0 violate the joints at t0"):
+        jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), t0=0.005)
+
+
+def test_traced_nan_output_times_are_checked():
+    ts = jnp.array([0.0, 0.004, jnp.nan, 0.01])
+    with pytest.raises(Exception, match=r"ts must be finite, increasing and lie within \[t0, t1\]"):
+        jax.jit(lambda ts: jb.simulate(jb.cases.xu2014(impact=False), 0.01, ts).q)(ts)
 
 
 def test_traced_non_finite_times_are_checked():

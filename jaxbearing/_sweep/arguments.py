@@ -17,6 +17,7 @@ import numpy as np
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
+from ..solve._simulate import _checked_span, _checked_ts, window_stops
 
 DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
@@ -59,8 +60,8 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
     points, shape = grid_points(names, axes, grid)
     items = metric_items(metrics, names)
     sim_kwargs = simulate_kwargs_of(simulate_kwargs, solve)
-    t1 = float(t1)
-    t0 = float(sim_kwargs.get("t0", 0.0))
+    t0, t1 = (float(t) for t in _checked_span(sim_kwargs.get("t0", 0.0), t1))
+    window_stops(sim_kwargs.get("window_edges", ()))
     sim_kwargs.setdefault("fatigue", any(needs_fatigue(fn) for _, fn in items))
     if solve == "one_loop":
         _check_one_loop(items, ts)
@@ -68,7 +69,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
         sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
         if sim_kwargs.get("max_segments") is None:
             sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
-    check_points(model, names, points)
+    check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
 
@@ -100,12 +101,7 @@ def parameters(model, params):
             raise TypeError(f"Parameter names must be dotted paths (str); got {name!r}.")
         if name in RESERVED:
             raise ValueError(f"{name!r} cannot be a parameter name (reserved for the results).")
-        leaf = paths.get(model, name)  # clear error for a bad path
-        if not eqx.is_array(leaf) or jnp.shape(leaf) != ():
-            raise ValueError(
-                f"Parameter {name!r} must be a scalar array leaf of the model to be swept; "
-                f"got {type(leaf).__name__} {getattr(leaf, 'shape', '')}."
-            )
+        paths.scalar_leaf(model, name, "to be swept")
         v = np.asarray(raw, dtype=np.float64)
         if v.ndim == 0:
             v = v.reshape(1)
@@ -181,10 +177,7 @@ def output_times(items, t0, t1, ts) -> np.ndarray:
     if ts is None:
         dense = any(needs_samples(fn) for _, fn in items)
         return np.linspace(t0, t1, DEFAULT_SAMPLES if dense else 2)
-    ts = np.asarray(ts, dtype=np.float64)
-    if ts.ndim != 1 or ts.size < 1:
-        raise ValueError(f"ts must be a non-empty 1-D array of times; got shape {ts.shape}.")
-    return ts
+    return np.asarray(_checked_ts(ts, t0, t1))
 
 
 def simulate_kwargs_of(kwargs, solve="segments"):
@@ -221,10 +214,11 @@ def _simulate_parameters(solve="segments"):
     return inspect.signature(SOLVES[solve]).parameters
 
 
-def check_points(model, names, points):
-    """Raise a ValueError for the first point whose values break a parameter rule."""
-    messages = [message for _, message, _ in model.violations()]
-    flags = np.asarray(_violation_flags(model, names, jnp.asarray(points)))
+def check_points(model, names, points, t0=0.0):
+    """Raise a ValueError for the first point whose values break a parameter rule (the initial
+    state's rules at ``t0`` [s])."""
+    messages = [message for _, message, _ in model.violations(t0)]
+    flags = np.asarray(_violation_flags(model, names, jnp.asarray(points), t0))
     bad = np.argwhere(flags)
     if bad.size:
         i, r = bad[0]
@@ -236,10 +230,10 @@ def check_points(model, names, points):
 
 
 @eqx.filter_jit
-def _violation_flags(model, names, points):
+def _violation_flags(model, names, points, t0):
     def one(row):
         m = paths.replace(model, dict(zip(names, row)))
-        return jnp.stack([jnp.any(jnp.asarray(w)) for w, _, _ in m.violations()])
+        return jnp.stack([jnp.any(jnp.asarray(w)) for w, _, _ in m.violations(t0)])
 
     return jax.vmap(one)(points)
 
@@ -249,6 +243,14 @@ def default_chunk_size(platform: str | None = None) -> int:
     accelerators (measured: README, 'Performance and solvers' and 'Where it runs')."""
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
+
+
+def padded_rows(chunk_points, n_devices) -> int:
+    """Rows a chunk of ``chunk_points`` points runs as: a multiple of the device count with at
+    least 2 rows a device (the padding repeats the last point). XLA compiles a batch of one as a
+    program of its own, whose rounding differs from that of any larger batch (and from the
+    point run alone), so a member would depend on its chunk size."""
+    return max(2, math.ceil(chunk_points / n_devices)) * n_devices
 
 
 def chunk_points(chunk_size, n_devices, n_points) -> int:

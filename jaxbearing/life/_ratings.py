@@ -36,6 +36,11 @@ FC_TABLE = np.array(
 ISO_REDUCTION = 0.957
 
 
+def _finite(**values):
+    """One rule per named value: it must be finite (a NaN passes every comparison rule)."""
+    return [(~jnp.isfinite(v), f"{name} must be finite (not NaN or infinite)", v) for name, v in values.items()]
+
+
 def _geometry_rules(n_balls, ball_diameter, pitch_diameter, contact_angle):
     return [
         _checks.ball_count(n_balls),
@@ -71,7 +76,8 @@ def load_rating_factor(ratio):
     """
     r = _checks.as_float(ratio, "ratio", "-")
     _checks.raise_if_concrete(
-        [
+        _finite(ratio=r)
+        + [
             (
                 (r < FC_RATIO[0] - 1e-12) | (r > FC_RATIO[-1] + 1e-12),
                 (
@@ -128,7 +134,11 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
         (contact_angle, "contact_angle", "rad"),
         (b_m, "b_m", "-"),
     )
-    _checks.raise_if_concrete(_geometry_rules(z, d, dm, alpha) + [_checks.positive("b_m", bm, "-")])
+    _checks.raise_if_concrete(
+        _finite(n_balls=z, ball_diameter=d, pitch_diameter=dm, contact_angle=alpha, b_m=bm)
+        + _geometry_rules(z, d, dm, alpha)
+        + [_checks.positive("b_m", bm, "-")]
+    )
     load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
     return _dynamic_load_rating(z, d, dm, alpha, bm)
 
@@ -207,7 +217,11 @@ def ball_race_load_ratings(
         (reduction, "reduction", "-"),
     )
     _checks.raise_if_concrete(
-        _geometry_rules(z, d, dm, alpha)
+        _finite(
+            n_balls=z, ball_diameter=d, pitch_diameter=dm, groove_inner=fi, groove_outer=fo,
+            contact_angle=alpha, b_m=bm, reduction=red,
+        )
+        + _geometry_rules(z, d, dm, alpha)
         + [
             (fi <= 0.5, "groove_inner (inner raceway conformity f_i = r_i/D) must exceed 0.5", fi),
             (fo <= 0.5, "groove_outer (outer raceway conformity f_o = r_o/D) must exceed 0.5", fo),

@@ -29,6 +29,7 @@ class Body(eqx.Module):
         self.inertia = _checks.as_float(inertia, "body moment of inertia", "kg m^2")
 
     def violations(self):
+        _checks.require_scalars(self, ("mass", "inertia"))
         return [
             _checks.positive("body mass", self.mass, "kg"),
             _checks.positive("body moment of inertia", self.inertia, "kg m^2"),

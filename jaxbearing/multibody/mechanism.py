@@ -284,33 +284,44 @@ class Mechanism(eqx.Module):
         return jnp.stack([g[0] for g in gaps]), jnp.stack([g[1] for g in gaps])
 
     # -- validation --------------------------------------------------------------------------
-    def violations(self):
-        """Every rule on every parameter of the model, plus consistency of the initial state;
-        first that every floating leaf is finite (named by its dotted path)."""
+    def violations(self, t0=0.0):
+        """Every rule on every parameter of the model, plus consistency of the initial state at
+        ``t0`` [s] (joints and drivers satisfied, no contact switched on while its surfaces
+        overlap); first that every floating leaf is finite (named by its dotted path)."""
         rules = _checks.finite_leaves(self)
         parts = self.bodies + self.forces + self.contacts
         if self.gravity is not None:
             parts += (self.gravity,)
         for part in parts:
             rules.extend(part.violations())
-        t0 = jnp.zeros((), self.q0.dtype)
+        t0 = jnp.asarray(t0, self.q0.dtype)
         if self.joints:
             pos = jnp.max(jnp.abs(self.constraints(self.q0, t0)))
             vel = jnp.max(jnp.abs(self.constraint_velocity(self.q0, self.qd0, t0)))
             rules.append(
                 (
                     pos > POSITION_TOLERANCE,
-                    f"initial positions q0 violate the joints by more than {POSITION_TOLERANCE} "
-                    "(m or rad): make q0 consistent with the joints",
+                    f"initial positions q0 violate the joints at t0 by more than {POSITION_TOLERANCE} "
+                    "(m or rad): make q0 consistent with the joints and drivers at t0",
                     pos,
                 )
             )
             rules.append(
                 (
                     vel > VELOCITY_TOLERANCE,
-                    f"initial velocities qd0 violate the joints by more than {VELOCITY_TOLERANCE} "
-                    "(m/s or rad/s): make qd0 consistent with the joints and drivers",
+                    f"initial velocities qd0 violate the joints at t0 by more than {VELOCITY_TOLERANCE} "
+                    "(m/s or rad/s): make qd0 consistent with the joints and drivers at t0",
                     vel,
+                )
+            )
+        for i, contact in enumerate(self.contacts):
+            overlap = contact.gap(self.q0, self.qd0)[0]
+            rules.append(
+                (
+                    contact.active(t0) & (overlap > 0.0),
+                    f"contact {i} is switched on at t0 while its surfaces overlap (penetration "
+                    "[m]): start it apart, or switch it on later (active_from) when they are apart",
+                    overlap,
                 )
             )
         rules.append(_checks.positive("Baumgarte alpha", self.baumgarte_alpha, "1/s"))

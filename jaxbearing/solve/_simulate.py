@@ -315,14 +315,26 @@ def _check_max_steps(max_steps):
 
 
 def window_stops(window_edges) -> jax.Array:
-    """The stops a solve adds to its time cells: `WINDOW_START` and the ``window_edges`` [s]."""
-    return jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    """The stops a solve adds to its time cells: `WINDOW_START` and the ``window_edges`` [s];
+    a `ValueError` unless those are a tuple (or list) of finite numbers."""
+    wrong = ValueError(
+        f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
+    )
+    if not isinstance(window_edges, (tuple, list)) or any(isinstance(e, (bool, str)) for e in window_edges):
+        raise wrong
+    try:
+        stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+    except (TypeError, ValueError):
+        raise wrong from None
+    if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):
+        raise wrong
+    return stops
 
 
 def checked_start(model, t0, t1, more=()):
     """The initial state [q0, qd0], carrying the model's rules, t1 > t0 and ``more`` rules
     (checked at run time, under jit, vmap and grad: `_checks.enforce`)."""
-    rules = model.violations()
+    rules = model.violations(t0)
     rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
     rules.extend(more)
     return _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
@@ -359,6 +371,7 @@ def _checked_tolerances(rtol, atol):
 def _checked_ts(ts, t0, t1):
     """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
     concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
+    single = getattr(ts, "dtype", None) == np.float32
     ts = jnp.asarray(ts, jnp.float64)
     if ts.ndim != 1 or ts.shape[0] == 0:
         raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
@@ -378,8 +391,10 @@ def _checked_ts(ts, t0, t1):
     out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
     if out.size:
         i = out[0]
+        hint = " (float32 times round off t0 and t1: give ts in float64)" if single else ""
         raise ValueError(
-            f"ts must lie within [t0, t1] = [{float(t0):.6g}, {float(t1):.6g}] s; got ts[{i}] = {t[i]:.6g}."
+            f"ts must lie within [t0, t1] = [{float(t0)!r}, {float(t1)!r}] s; got ts[{i}] = "
+            f"{float(t[i])!r}{hint}."
         )
     return ts
 
@@ -391,8 +406,8 @@ def _simulate(
 ):
     y0 = checked_start(
         model, t0, t1,
-        [((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]),
-          "ts must be increasing and lie within [t0, t1]", ts)],
+        [((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
+          "ts must be finite, increasing and lie within [t0, t1]", ts)],
     )
     n = model.n_coordinates
     elimination = "entries" if entry_elimination() else "dense"
@@ -556,12 +571,19 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
     failed = sol.result != RESULTS.successful
     if is_concrete(failed, sol.t_final):
         if bool(failed):
+            located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
+            cause = (
+                "the event's root finder met a jump, not a crossing, e.g. a contact switched on "
+                "(its active_from) while its surfaces overlap; switch it on when they are apart"
+                if bool(located)
+                else "a step limit too low for stiff contacts (raise max_steps), more contact "
+                "events than max_segments (raise max_segments), or parameters that make the "
+                "model blow up (check stiffness, clearance and masses)"
+            )
             raise SimulationError(
                 f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
-                f"{RESULTS[sol.result]} Likely causes: a step limit too low for stiff contacts "
-                "(raise max_steps), more contact events than max_segments (raise max_segments), "
-                "or parameters that make the model blow up (check stiffness, clearance and "
-                "masses). Pass throw=False to inspect the partial solution."
+                f"{RESULTS[sol.result]} Likely cause: {cause}. Pass throw=False to inspect the "
+                "partial solution."
             )
         return sol
     # under jit/vmap/grad: the failing member's own message (see `RESULTS`)
