@@ -343,6 +343,9 @@ def checked_start(model, t0, t1, more=()):
 def _checked_span(t0, t1):
     """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
     or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
+    for name, t in (("t0", t0), ("t1", t1)):
+        if isinstance(t, (str, bytes, bool)):
+            raise ValueError(f"{name} must be a number [s]; got {t!r}.")
     t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
     if is_concrete(t0, t1):
         for name, t in (("t0", t0), ("t1", t1)):
@@ -372,6 +375,8 @@ def _checked_ts(ts, t0, t1):
     """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
     concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
     single = getattr(ts, "dtype", None) == np.float32
+    if not isinstance(ts, jax.Array) and np.asarray(ts).dtype.kind not in "iuf":
+        raise ValueError(f"ts must be an array of numbers [s]; got {ts!r}.")
     ts = jnp.asarray(ts, jnp.float64)
     if ts.ndim != 1 or ts.shape[0] == 0:
         raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
