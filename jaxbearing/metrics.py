@@ -175,6 +175,8 @@ def intervals_inside(stats, t_min, t_max, name: str):
     known in Python; traced, the second value is False."""
     t_max = jnp.inf if t_max is None else t_max
     t_min, t_max = jnp.asarray(t_min, jnp.float64), jnp.asarray(t_max, jnp.float64)
+    if is_concrete(t_min, t_max) and not t_max > t_min:
+        raise ValueError(f"t_max must exceed t_min; got the window [{float(t_min)}, {float(t_max)}] s.")
     start = jnp.min(jnp.where(stats.valid, stats.t_start, jnp.inf))
     end = jnp.max(jnp.where(stats.valid, stats.t_end, -jnp.inf))
 

@@ -214,6 +214,8 @@ BAD_INPUTS = [
      r"window_edges must be a tuple of finite times \[s\] \(e\.g\. \(0\.09,\)\); got 0\.005\."),
     (lambda: jb.metrics.max_target_displacement(_short_solution(), coordinate=-2),
      r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
+    (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
+     r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
     # parameter paths: one parameter named twice, a static setting, a non-positive scale
     (lambda: jb.paths.replace(jb.cases.xu2014(), {"bearing.clearance": 1e-5, "forces.0.bearing.clearance": 2e-5}),
      r"Parameter paths 'bearing\.clearance' and 'forces\.0\.bearing\.clearance' name the same parameter; give it once\."),
