@@ -7,7 +7,7 @@ import pytest
 jax.config.update("jax_enable_x64", True)
 
 # The suite's time is mostly compilation: each distinct static configuration of `simulate` (the
-# model's structure, the number of output times, the segment slots that the span sets, the
+# model's structure, the number of output times above 2 048, the segment slots that the span sets, the
 # options; not rtol, atol, max_steps or parameter values) compiles the solve anew, in each
 # pytest-xdist worker that meets it. So tests that share a compiled solve or a module-scoped
 # fixture (a simulation, a command-line run, the sweep's subprocesses) run on one worker

@@ -263,17 +263,20 @@ def test_cli_summary(quick_run):
             assert key in case, key
         assert case["t_final_s"] == pytest.approx(0.1)
         assert case["max_drift"] < 1e-8
-    assert 0.090 < imp["first_contact_time_s"] < 0.093
-    assert 1.0 < imp["first_contact_approach_speed_m_per_s"] < 4.0
-    assert imp["contact_count"] >= 2
-    assert 1e3 < imp["peak_impact_force_N"] < 3e4
+    # the paper's case as the library computes it (README's table; tests/test_xu2014.py checks
+    # it against the paper): the onset to the event's tolerance, the peaks to 2e-3, which covers
+    # another step sequence on another machine (two solves of this case differ by up to 5e-4)
+    assert imp["first_contact_time_s"] == pytest.approx(0.091348, abs=2e-6)
+    assert imp["first_contact_approach_speed_m_per_s"] == pytest.approx(2.2164, rel=2e-3)
+    assert imp["contact_count"] == 6  # 6 strikes per revolution, one revolution after 0.05 s
+    assert imp["peak_impact_force_N"] == pytest.approx(6933.0, rel=2e-3)
     assert imp["peak_bearing_force_N"] > 1e3  # impacts lift the bearing to kN levels
     assert free["contact_count"] == 0 and free["peak_impact_force_N"] == 0.0
-    assert 100.0 < free["peak_bearing_force_N"] < 600.0
+    assert free["peak_bearing_force_N"] == pytest.approx(247.0, rel=2e-3)
     t5 = s["table5"]
     assert np.array(t5["simulated_N"]).shape == (8, 5)
     assert t5["entries_compared"] == 32  # 0.04 ... 0.1 s: the 0.12 s column is beyond t1
-    assert t5["rms_N"] < 20.0 and t5["loaded_state_mismatches"] <= 3
+    assert t5["rms_N"] == pytest.approx(7.99, rel=1e-2) and t5["loaded_state_mismatches"] <= 3
 
 
 def test_module_entry_point_help():

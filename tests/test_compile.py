@@ -83,6 +83,7 @@ def test_fewer_output_times_compile_nothing_new(compiled_functions):
 
 def test_cpu_options_go_to_the_cpu_only():
     assert jbcompile.compiler_options("cpu") == jbcompile.accepted_cpu_options()
+    assert jbcompile.compiler_options("cpu")  # this jaxlib's XLA:CPU accepts at least one
     for platform in ("gpu", "cuda", "rocm", "tpu", "METAL"):
         assert jbcompile.compiler_options(platform) == {}
 
@@ -119,6 +120,7 @@ def test_cpu_options_are_dropped_where_the_cpu_compiler_refuses_them(monkeypatch
         jbcompile.accepted_cpu_options.cache_clear()
 
 
+@pytest.mark.skipif(jax.default_backend() != "cpu", reason="reads the CPU as the default backend")
 def test_target_platform_follows_committed_inputs_then_default_device_then_backend():
     x = jnp.ones(3)
     assert jbcompile.target_platform((x,)) == jax.default_backend() == "cpu"

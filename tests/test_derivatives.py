@@ -59,6 +59,7 @@ class Case:
         # second member of the vmapped batch: with impact the RMS force is a rough function of
         # the clearance away from 40 um (the motion rattles between impacts: at 44 um central
         # differences scatter by 10 % and do not converge), so the batch repeats the design point
+        # and checks only that vmap carries the derivative (each lane against the reference)
         self.second = float(jb.paths.get(self.model, "bearing.clearance")) * (1.0 if impact else 1.1)
 
 
@@ -92,8 +93,8 @@ def check_user_transforms_and_vmap(c):
     forward = jax.jacfwd(lambda x: f(x, diffrax.ForwardMode()))
     batched = jb.jit(jax.vmap(forward))(jnp.array([x0, c.second]))
     assert float(batched[0]) == pytest.approx(c.reference[name], rel=AGREE)
-    if c.second == x0:
-        assert float(batched[1]) == float(batched[0])
+    if c.second == x0:  # with impact: the repeated point, against the finite difference too
+        assert float(batched[1]) == pytest.approx(c.reference[name], rel=AGREE)
     else:
         second = jb.paths.replace(c.model, {name: c.second})
         assert float(batched[1]) == pytest.approx(converged_difference(c.value, second, name), rel=AGREE)

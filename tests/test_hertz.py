@@ -3,7 +3,9 @@
 Truths: scipy's elliptic integrals (Cephes, independent of our AGM), the Harris ellipticity
 equation solved with scipy's brentq, the exact sphere limit and its series, the Hamrock–Brewe
 curve fits, the paper's stiffness numbers (Xu 2014, Sect. 3 and 4), and central finite
-differences for gradients.
+differences for gradients. The paper's K_i and K_o are a regression anchor rather than an
+independent truth: the groove ratios F_I and F_O were fitted to them through this Eq. 10
+(docs/model.md); the hand calculation and the brentq tests check Eq. 10 itself.
 """
 
 import jax

@@ -120,7 +120,7 @@ def test_duty_cycle_weights_by_revolutions():
     # ISO 281 duty cycle: P^3 = sum n_k F_k^3 / sum n_k, n_k the revolutions at load F_k.
     ts = np.linspace(0.0, 1.0, 2001)
     first = ts <= 0.25
-    speed = np.where(first, 40.0, 10.0)  # equal revolutions 10 and 7.5 rad ...
+    speed = np.where(first, 40.0, 10.0)  # angles 10 and 7.5 rad in the two parts ...
     f = np.where(first, 800.0, 200.0)
     n1, n2 = 40.0 * 0.25, 10.0 * 0.75
     expected = ((n1 * 800.0**3 + n2 * 200.0**3) / (n1 + n2)) ** (1 / 3)
@@ -233,7 +233,17 @@ def test_lp_life_at_zero_clearance_matches_catalogue_life():
     l_lp = _lp_l10(ts, speed, inner, outer, ratings)
     l_iso = float(life.dynamic_load_rating(Z_6205, D_6205, DM_6205) / f_r) ** 3
     print(f"LP / ISO life at zero clearance (6205, f = 0.52): {l_lp / l_iso:.4f}")
-    assert l_lp / l_iso == pytest.approx(1.0, abs=0.04)
+    # ISO's f_c is Lundberg–Palmgren's closed form at f = 0.52 within 2e-3
+    # (test_fc_table_is_lundberg_palmgren_times_reduction), so the lives agree to about three
+    # times that (measured 9e-5); a ring-life combination other than the 10/9 slope's moves the
+    # ratio by several per cent (a series law 1/(1/L_i + 1/L_o): 0.966)
+    assert l_lp / l_iso == pytest.approx(1.0, abs=6e-3)
+
+
+def test_bearing_life_combines_rings_with_slope_10_9():
+    """(L_i^(-10/9) + L_o^(-10/9))^(-9/10): two equal rings give 2^(-9/10) of one."""
+    assert float(life.bearing_life(2.0, 2.0)) == pytest.approx(2.0 * 2.0**-0.9, rel=1e-14)
+    assert float(life.bearing_life(1.0, 1e12)) == pytest.approx(1.0, rel=1e-12)
 
 
 def test_clearance_shortens_lp_life():
@@ -434,8 +444,6 @@ def test_life_of_a_solution_does_not_depend_on_the_output_times(model, simulated
 @pytest.mark.parametrize(
     "call, name",
     [
-        (lambda: life.dynamic_load_rating(9, -1e-3, 39e-3), "ball_diameter"),
-        (lambda: life.dynamic_load_rating(9, 8e-3, 7e-3), "pitch_diameter"),
         (lambda: life.dynamic_load_rating(0, 8e-3, 39e-3), "n_balls"),
         (lambda: life.dynamic_load_rating(9, 8e-3, 39e-3, -0.1), "contact_angle"),
         (lambda: life.dynamic_load_rating(9, 1e-3, 200e-3), "Table 2"),

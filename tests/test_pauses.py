@@ -2,7 +2,6 @@
 controller's state and proposed step, so the solution does not depend on K, and vmapped members
 equal the same points run alone, to the last bit."""
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np

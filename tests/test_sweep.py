@@ -193,9 +193,10 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
     assert np.isnan(ds.peak_ball_load.values[:, 1]).all()
     assert np.isfinite(ds.peak_ball_load.values[:, 0]).all()
 
-    # each point run alone, under jit with the parameters traced (as in the sweep): the same
-    # solution to the last bit, and the metrics (bearing life included) within 1e-12, as the
-    # peaks and integrals recorded at the Gauss points may round differently in a batch
+    # each point run alone, under jit with the parameters traced (as in the sweep): the metrics
+    # (bearing life included) within 1e-12; the solutions are equal to the last bit
+    # (tests/test_pauses.py), the peaks and integrals recorded at the Gauss points may round
+    # differently in a batch
     for c in CLEARANCES:
         for d in DAMPINGS:
             values, status = single(c, d)
