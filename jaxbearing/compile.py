@@ -14,8 +14,8 @@ when it compiles for the CPU (`compiler_options`, `target_platform`), and of tho
 ones that CPU compiler accepts (`accepted_cpu_options`, each asked once a process); none
 elsewhere.
 
-`sweep` keeps XLA's defaults: with them a vmapped member equals, to the last bit, the same
-point run alone under `jax.jit` (tests/test_sweep.py); without the fusion emitters batched and
+`sweep` keeps XLA's defaults: with them a vmapped member's solution equals, to the last bit,
+that of the same point run alone under `jax.jit` (tests/test_pauses.py); without the fusion emitters batched and
 single kernels round differently (README), and batches ran no faster.
 
 One more setting makes a simulation much cheaper on the CPU (README, *Performance and solvers*),

@@ -1,6 +1,7 @@
 """Bad input gets a clear error naming the parameter and what is allowed; failures never hand
 back silent NaNs."""
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -216,6 +217,9 @@ BAD_INPUTS = [
      r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
      r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=1e-6,
+                         stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10)),
+     r"rtol and atol set the default step-size controller; with stepsize_controller, give them to that controller\."),
     # parameter paths: one parameter named twice, a static setting, a non-positive scale
     (lambda: jb.paths.replace(jb.cases.xu2014(), {"bearing.clearance": 1e-5, "forces.0.bearing.clearance": 2e-5}),
      r"Parameter paths 'bearing\.clearance' and 'forces\.0\.bearing\.clearance' name the same parameter; give it once\."),

@@ -203,6 +203,11 @@ def simulate(
     if stepsize_controller is None:
         rtol, atol = _checked_tolerances(rtol, atol)
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
+    elif is_concrete(rtol, atol) and (rtol, atol) != (1e-8, 1e-10):
+        raise ValueError(
+            "rtol and atol set the default step-size controller; with stepsize_controller, give "
+            "them to that controller."
+        )
     solver = _with_root_tolerances(solver, stepsize_controller)
     stops = window_stops(window_edges)
     sol = _with_adjoint(
