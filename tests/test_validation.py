@@ -217,6 +217,8 @@ BAD_INPUTS = [
      r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
      r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=10.0),
+     r"rtol must be below 1 \(a relative error\); got rtol = 10\.0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=1e-6,
                          stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10)),
      r"rtol and atol set the default step-size controller; with stepsize_controller, give them to that controller\."),

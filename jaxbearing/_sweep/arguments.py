@@ -256,7 +256,9 @@ def padded_rows(chunk_points, n_devices) -> int:
 def chunk_points(chunk_size, n_devices, n_points) -> int:
     """Points per chunk: ``chunk_size`` (default `default_chunk_size`) per device, but a small
     sweep is never padded beyond one round of the devices."""
-    if chunk_size is not None and (int(chunk_size) != chunk_size or chunk_size < 1):
+    if chunk_size is not None and (
+        isinstance(chunk_size, bool) or int(chunk_size) != chunk_size or chunk_size < 1
+    ):
         raise ValueError(f"chunk_size must be a positive integer; got {chunk_size!r}.")
     per_device = default_chunk_size() if chunk_size is None else int(chunk_size)
     return max(1, min(per_device * n_devices, math.ceil(n_points / n_devices) * n_devices))

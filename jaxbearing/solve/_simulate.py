@@ -371,6 +371,8 @@ def _checked_tolerances(rtol, atol):
         for name, x in (("rtol", rtol), ("atol", atol)):
             if x.ndim or not (jnp.isfinite(x) and x >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
+        if not rtol < 1:
+            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {rtol}.")
         if not rtol + atol > 0:
             raise ValueError("rtol and atol must not both be zero: the step control needs one.")
     return rtol, atol
@@ -587,8 +589,9 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
                 "(its active_from) while its surfaces overlap; switch it on when they are apart"
                 if bool(located)
                 else "a step limit too low for stiff contacts (raise max_steps), more contact "
-                "events than max_segments (raise max_segments), or parameters that make the "
-                "model blow up (check stiffness, clearance and masses)"
+                "events than max_segments (raise max_segments), tolerances float64 cannot meet "
+                "(rtol below about 1e-13), or parameters that make the model blow up (check "
+                "stiffness, clearance and masses)"
             )
             raise SimulationError(
                 f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
