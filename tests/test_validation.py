@@ -287,6 +287,13 @@ def test_initial_state_is_checked_at_t0():
         jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), t0=0.005)
 
 
+def test_a_contact_switched_on_while_overlapping_is_an_error():
+    """The paper's circles overlap at 1 ms: the event value jumps from -1 (off) to +10 mm (on)
+    there, which the event's root finder reports as a jump, and the switch as an error."""
+    with pytest.raises(Exception, match=r"a contact switched on \(its active_from\) while its surfaces overlap"):
+        jb.simulate(jb.cases.xu2014(contact_on=0.001), 0.003)
+
+
 def test_traced_nan_output_times_are_checked():
     ts = jnp.array([0.0, 0.004, jnp.nan, 0.01])
     with pytest.raises(Exception, match=r"ts must be finite, increasing and lie within \[t0, t1\]"):

@@ -49,7 +49,9 @@ class _EventRoot(optx.AbstractRootFinder):
     the same bracket width, and converges superlinearly on a smooth f (the step's interpolant),
     so a batch waits far fewer iterations for its slowest member than with bisection (each an
     iteration of a while loop; README's GPU section). It stops, like `optx.Bisection`, when the
-    bracket is narrower than ``atol`` and the last value is smaller than ``atol``.
+    bracket is narrower than ``atol`` and the last value is smaller than ``atol``; or, narrower
+    than ``atol`` with a value above `JUMP` (f jumps there: a contact switched on while its
+    surfaces overlap), at the bracket's upper end, where `_switch` then says so.
 
     Under vmap diffrax root-finds for every member when any member has an event; for the others
     it asks for the root of t_next - t, which sits exactly at the upper end. Such a bracket
@@ -75,13 +77,23 @@ class _EventRoot(optx.AbstractRootFinder):
         return state.next, state, aux
 
     def terminate(self, fn, y, args, options, state, tags):
-        scale = self.atol + self.rtol * jnp.abs(y)
-        y_small = jnp.abs(state.upper - state.lower) < scale
+        y_small = jnp.abs(state.upper - state.lower) < self.atol + self.rtol * jnp.abs(y)
         f_small = jnp.abs(state.error) < self.atol
-        return y_small & f_small, optx.RESULTS.successful
+        return y_small & (f_small | _jumped(state)), optx.RESULTS.successful
 
     def postprocess(self, fn, y, aux, args, options, state, tags, result):
-        return y, aux, {}
+        return jnp.where(_jumped(state), state.upper, y), aux, {}
+
+
+JUMP = SEPARATION_OFFSET  # [m] an event value this far from 0 across a bracket of
+# `EVENT_TIME_TOLERANCE` is a jump: a continuous one would move at 1e4 m/s
+
+
+def _jumped(state) -> jax.Array:
+    """Whether the bracket, narrower than `EVENT_TIME_TOLERANCE`, holds a jump of the event
+    value rather than a crossing (`_EventRoot`; before its first step the value is +inf)."""
+    narrow = jnp.abs(state.upper - state.lower) < EVENT_TIME_TOLERANCE
+    return narrow & jnp.isfinite(state.error) & (jnp.abs(state.error) > JUMP)
 
 
 ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
@@ -375,7 +387,10 @@ def _end(s: _Setup, c: _Carry, sol, last):
 
 def _switch(model, c: _Carry, t_end, y_end, hit):
     """Switch what the event found, the located one and any other already across: (approach,
-    in_contact, engaged, onset record (time, approach speed, contact index, valid))."""
+    in_contact, engaged, onset record (time, approach speed, contact index, valid)). An error at
+    run time if a contact switched on (its ``active_from``) with its surfaces overlapping by
+    more than `SEPARATION_OFFSET`: a crossing located to `EVENT_TIME_TOLERANCE` overlaps by
+    about 1e-13 m."""
     approach, in_contact = c.approach, c.in_contact
     record = _no_onset(c.t)
     n, n_contacts = model.n_coordinates, len(model.contacts)
@@ -385,9 +400,14 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
     contact_switch, ball_switch = switch[:n_contacts], switch[n_contacts:]
     engaged = jnp.where(ball_switch, ~c.engaged, c.engaged)
     if n_contacts:
-        _, rate = model.contact_gaps(y_end[:n], y_end[n:])
+        penetration, rate = model.contact_gaps(y_end[:n], y_end[n:])
         onset = contact_switch & ~in_contact
-        approach = jnp.where(onset, rate, approach)
+        approach = eqx.error_if(
+            jnp.where(onset, rate, approach),
+            jnp.any(onset & (penetration > SEPARATION_OFFSET)),
+            "a contact switched on (its active_from) while its surfaces overlap: switch it on "
+            "when they are apart",
+        )
         in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
         has_onset = jnp.any(onset)
         record = (
