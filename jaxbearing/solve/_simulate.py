@@ -585,8 +585,8 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
         if bool(failed):
             located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
             cause = (
-                "the event's root finder met a jump, not a crossing, e.g. a contact switched on "
-                "(its active_from) while its surfaces overlap; switch it on when they are apart"
+                "the event's root finder did not converge on an event time (an event value that "
+                "neither crosses zero continuously nor jumps by more than 1 nm)"
                 if bool(located)
                 else "a step limit too low for stiff contacts (raise max_steps), more contact "
                 "events than max_segments (raise max_segments), tolerances float64 cannot meet "
