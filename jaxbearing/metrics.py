@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import warnings
 import numbers
+import warnings
 from collections.abc import Callable
 
 import equinox.internal as eqxi
