@@ -71,6 +71,12 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
             sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
+    if metrics is None and t1 <= _metrics.T_MIN:
+        raise ValueError(
+            f"The standard metrics read the window from t = {_metrics.T_MIN} s (metrics.T_MIN), "
+            f"which t1 = {t1} s does not reach: simulate longer, or pass metrics with an earlier "
+            "t_min (e.g. functools.partial(jb.metrics.peak_ball_load, t_min=0.0))."
+        )
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
 
 
