@@ -34,6 +34,10 @@ class RESULTS(diffrax.RESULTS):
         "engagement and release, and with segment_steps each pause starts one). Increase "
         "`max_segments`."
     )
+    contact_overlap = (
+        "The event found a contact switched on (its active_from) while its surfaces overlap: "
+        "switch it on when they are apart."
+    )
 
 
 class SimulationError(RuntimeError):

@@ -54,7 +54,9 @@ from ._recording import (
 )
 from ._segment import EVENT_TIME_TOLERANCE, _ITPState, _switch, event_values, itp_start, itp_step
 from ._simulate import (
+    ATOL,
     INITIAL_STEP,
+    RTOL,
     _check_max_steps,
     _checked_span,
     _checked_tolerances,
@@ -81,8 +83,8 @@ def simulate_one_loop(
     t1: float,
     *,
     t0: float = 0.0,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
+    rtol: float = RTOL,
+    atol: float = ATOL,
     max_steps: int = 1_000_000,
     window_edges: tuple = (),
     fatigue: bool = True,
@@ -210,8 +212,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         y_event = interpolation.evaluate(t_event)
         approach, in_contact, engaged = s.approach, s.in_contact, s.engaged
         record = (s.t, s.t, jnp.asarray(-1), jnp.asarray(False))  # no onset
+        overlap = jnp.zeros((), bool)
         if has_events:
-            approach, in_contact, engaged, record = _switch(model, s, t_event, y_event, located)
+            approach, in_contact, engaged, record, overlap = _switch(model, s, t_event, y_event, located)
         events = s.events + located
 
         # 2. the stages: a step from (t, y), or the first stage after a switch
@@ -261,6 +264,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         out_of_steps = stepping & (s.steps + 1 >= max_steps) & ~reached
         result = RESULTS.where(too_small, RESULTS.dt_min_reached, s.result)
         result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
+        result = RESULTS.where(overlap, RESULTS.contact_overlap, result)
         if has_events:
             started = itp_start(
                 s.t, t_b, event_max(s.t, s.y, s.in_contact, s.engaged), value_b, EVENT_TIME_TOLERANCE
@@ -293,7 +297,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
             events=events,
             steps=s.steps + stepping,
             rejected=s.rejected + (stepping & ~keep),
-            done=s.done | reached | too_small | out_of_steps,
+            done=s.done | reached | too_small | out_of_steps | overlap,
             result=result,
         )
 

@@ -79,20 +79,20 @@ class _EventRoot(optx.AbstractRootFinder):
     def terminate(self, fn, y, args, options, state, tags):
         y_small = jnp.abs(state.upper - state.lower) < self.atol + self.rtol * jnp.abs(y)
         f_small = jnp.abs(state.error) < self.atol
-        return y_small & (f_small | _jumped(state)), optx.RESULTS.successful
+        return y_small & (f_small | _jumped(state, self.atol)), optx.RESULTS.successful
 
     def postprocess(self, fn, y, aux, args, options, state, tags, result):
-        return jnp.where(_jumped(state), state.upper, y), aux, {}
+        return jnp.where(_jumped(state, self.atol), state.upper, y), aux, {}
 
 
 JUMP = SEPARATION_OFFSET  # [m] an event value this far from 0 across a bracket of
 # `EVENT_TIME_TOLERANCE` is a jump: a continuous one would move at 1e4 m/s
 
 
-def _jumped(state) -> jax.Array:
-    """Whether the bracket, narrower than `EVENT_TIME_TOLERANCE`, holds a jump of the event
-    value rather than a crossing (`_EventRoot`; before its first step the value is +inf)."""
-    narrow = jnp.abs(state.upper - state.lower) < EVENT_TIME_TOLERANCE
+def _jumped(state, atol) -> jax.Array:
+    """Whether the bracket, narrower than ``atol`` [s], holds a jump of the event value rather
+    than a crossing (`_EventRoot`; before its first step the value is +inf)."""
+    narrow = jnp.abs(state.upper - state.lower) < atol
     return narrow & jnp.isfinite(state.error) & (jnp.abs(state.error) > JUMP)
 
 
@@ -387,12 +387,13 @@ def _end(s: _Setup, c: _Carry, sol, last):
 
 def _switch(model, c: _Carry, t_end, y_end, hit):
     """Switch what the event found, the located one and any other already across: (approach,
-    in_contact, engaged, onset record (time, approach speed, contact index, valid)). An error at
-    run time if a contact switched on (its ``active_from``) with its surfaces overlapping by
-    more than `SEPARATION_OFFSET`: a crossing located to `EVENT_TIME_TOLERANCE` overlaps by
-    about 1e-13 m."""
+    in_contact, engaged, onset record (time, approach speed, contact index, valid), overlap).
+    ``overlap``: a contact switched on (its ``active_from``) with its surfaces overlapping by more
+    than `SEPARATION_OFFSET` (a crossing located to `EVENT_TIME_TOLERANCE` overlaps by about
+    1e-13 m); the solve then fails with `RESULTS.contact_overlap`."""
     approach, in_contact = c.approach, c.in_contact
     record = _no_onset(c.t)
+    overlap = jnp.zeros((), bool)
     n, n_contacts = model.n_coordinates, len(model.contacts)
     values = event_values(model, t_end, y_end, in_contact, c.engaged)
     located = jnp.arange(values.shape[0]) == jnp.argmax(values)
@@ -402,12 +403,8 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
     if n_contacts:
         penetration, rate = model.contact_gaps(y_end[:n], y_end[n:])
         onset = contact_switch & ~in_contact
-        approach = eqx.error_if(
-            jnp.where(onset, rate, approach),
-            jnp.any(onset & (penetration > SEPARATION_OFFSET)),
-            "a contact switched on (its active_from) while its surfaces overlap: switch it on "
-            "when they are apart",
-        )
+        approach = jnp.where(onset, rate, approach)
+        overlap = jnp.any(onset & (penetration > SEPARATION_OFFSET))
         in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
         has_onset = jnp.any(onset)
         record = (
@@ -416,7 +413,7 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
             jnp.where(has_onset, jnp.argmax(onset), -1).astype(int),
             has_onset,
         )
-    return approach, in_contact, engaged, record
+    return approach, in_contact, engaged, record, overlap
 
 
 def _no_onset(t) -> tuple:
@@ -543,8 +540,11 @@ def segment(s: _Setup, c: _Carry, slot):
     interval = _add((c.peaks[c.cell], c.integrals[c.cell], c.fatigue[c.cell]), ours)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = _no_onset(c.t)
+    overlap = jnp.zeros((), bool)
     if s.event is not None:
-        approach, in_contact, engaged, record = _switch(s.model, c, t_end, y_end, hit)
+        approach, in_contact, engaged, record, overlap = _switch(s.model, c, t_end, y_end, hit)
+    failure = RESULTS.where(overlap, RESULTS.contact_overlap, RESULTS.promote(sol.result))
+    ok = ok & ~overlap
     t_reached = jnp.where(c.done, c.t, t_end)
     cell_done = ok & ~hit & ~paused
     finished = c.done | ~ok | (cell_done & ((c.cell == s.stops.shape[0] - 1) | (t_stop >= s.t1)))
@@ -569,7 +569,7 @@ def segment(s: _Setup, c: _Carry, slot):
         integrals=c.integrals.at[c.cell].set(interval[1]),
         fatigue=c.fatigue.at[c.cell].set(interval[2]),
         done=finished,
-        result=RESULTS.where(c.done | ok, c.result, RESULTS.promote(sol.result)),
+        result=RESULTS.where(c.done | ok, c.result, failure),
         steps=c.steps + jnp.where(c.done, 0, sol.stats["num_steps"]),
         rejected=c.rejected + jnp.where(c.done, 0, sol.stats.get("num_rejected_steps", 0)),
         control=control,

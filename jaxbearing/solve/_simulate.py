@@ -70,6 +70,7 @@ from ._segment import (
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
+RTOL, ATOL = 1e-8, 1e-10  # the default step-size control's tolerances (state in m, rad, m/s)
 OUTPUT_BATCH = 2048  # output times evaluated together (forces, accelerations) after the solve
 OUTPUT_BUCKET = 2048  # fewer output times share one compiled solve of this many (`_bucketed`)
 SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
@@ -102,8 +103,8 @@ def simulate(
     *,
     t0: float = 0.0,
     solver: diffrax.AbstractSolver | None = None,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
+    rtol: float = RTOL,
+    atol: float = ATOL,
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
     max_steps: int = 200_000,
     max_segments: int | None = None,
@@ -203,7 +204,7 @@ def simulate(
     if stepsize_controller is None:
         rtol, atol = _checked_tolerances(rtol, atol)
         stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
-    elif is_concrete(rtol, atol) and (rtol, atol) != (1e-8, 1e-10):
+    elif is_concrete(rtol, atol) and (rtol, atol) != (RTOL, ATOL):
         raise ValueError(
             "rtol and atol set the default step-size controller; with stepsize_controller, give "
             "them to that controller."
@@ -584,19 +585,23 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
     if is_concrete(failed, sol.t_final):
         if bool(failed):
             located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
-            cause = (
-                "the event's root finder did not converge on an event time (an event value that "
-                "neither crosses zero continuously nor jumps by more than 1 nm)"
-                if bool(located)
-                else "a step limit too low for stiff contacts (raise max_steps), more contact "
-                "events than max_segments (raise max_segments), tolerances float64 cannot meet "
-                "(rtol below about 1e-13), or parameters that make the model blow up (check "
-                "stiffness, clearance and masses)"
-            )
+            if bool(sol.result == RESULTS.contact_overlap):
+                cause = ""  # the result says it all
+            elif bool(located):
+                cause = (
+                    " Likely cause: the event's root finder did not converge on an event time (an "
+                    "event value that neither crosses zero continuously nor jumps by more than 1 nm)."
+                )
+            else:
+                cause = (
+                    " Likely cause: a step limit too low for stiff contacts (raise max_steps), more "
+                    "contact events than max_segments (raise max_segments), tolerances float64 "
+                    "cannot meet (rtol below about 1e-13), or parameters that make the model blow "
+                    "up (check stiffness, clearance and masses)."
+                )
             raise SimulationError(
                 f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
-                f"{RESULTS[sol.result]} Likely cause: {cause}. Pass throw=False to inspect the "
-                "partial solution."
+                f"{RESULTS[sol.result]}{cause} Pass throw=False to inspect the partial solution."
             )
         return sol
     # under jit/vmap/grad: the failing member's own message (see `RESULTS`)
