@@ -69,7 +69,7 @@ def check_distinct(model, names):
     for name in names:
         reached = get(tagged, name)
         for tag in jax.tree_util.tree_leaves(reached, is_leaf=lambda x: isinstance(x, _Tag)):
-            if seen.get(id(tag), name) != name or (id(tag) in seen and names.count(name) > 1):
+            if id(tag) in seen:
                 raise ValueError(
                     f"Parameter paths {seen[id(tag)]!r} and {name!r} name the same parameter; "
                     "give it once."
