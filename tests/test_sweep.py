@@ -263,6 +263,21 @@ def test_one_point_a_chunk_equals_larger_chunks(grid_result):
         assert_same(ds.isel(point=i), grid_result[0].sel(where))
 
 
+def test_default_chunks_follow_the_platform_and_the_solve():
+    """32 points a CPU device; on accelerators a one-loop chunk is as large as the GPU
+    measurements found best (README, 'Where it runs'), and a small sweep is not padded."""
+    from jaxbearing._sweep import arguments
+
+    assert arguments.default_chunk_size("cpu") == arguments.default_chunk_size("cpu", "one_loop") == 32
+    assert arguments.default_chunk_size("gpu") == 4096
+    assert arguments.default_chunk_size("gpu", "one_loop") == 65536
+    largest = arguments.default_chunk_size(solve="one_loop")  # on this machine's platform
+    assert arguments.chunk_points(None, 1, 10**6, "one_loop") == largest
+    assert arguments.chunk_points(None, 2, 7, "one_loop") == 8  # one round of 2 devices
+    with pytest.raises(ValueError, match="solve must be one of"):
+        arguments.default_chunk_size("gpu", "one loop")
+
+
 def test_list_of_points(grid_result):
     grid = grid_result[0]
     points = {"bearing.clearance": [60e-6, 20e-6, 40e-6], "bearing.damping": [300.0, 1e8, 300.0]}

@@ -57,8 +57,10 @@ How it runs
   gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and
   holds more members in memory. The measured rates and memory per member are in the README
   ('Performance and solvers') and ``benchmarks/results.json``
-  (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 1024 points
-  per device (the best of 256, 1024 and 4096 on one GPU; README's GPU table).
+  (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 4096 points
+  per device for the segmented solve and 65536 for ``solve="one_loop"`` (the best measured on
+  one GPU: README, 'Where it runs'); there a chunk runs in lock-step too, but the device's
+  threads are idle until tens of thousands of members share an iteration.
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
   ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.
   A chunk that raises at run time (an equinox check inside the solve) is rerun one point at a

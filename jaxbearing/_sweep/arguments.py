@@ -19,8 +19,8 @@ from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
 from ..solve._simulate import _checked_span, _checked_ts, window_stops
 
-DEFAULT_CHUNK_SIZE = {"cpu": 32}  # points per device per chunk, by platform (docs/performance.md)
-DEFAULT_CHUNK_SIZE_ACCELERATOR = 1024  # measured best on one H100 of 256, 1024, 4096 (README)
+DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
+DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (README)
 SEGMENT_STEPS = 8  # a member's segments pause after this many steps (docs/performance.md: 4-12)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
@@ -244,11 +244,15 @@ def _violation_flags(model, names, points, t0):
     return jax.vmap(one)(points)
 
 
-def default_chunk_size(platform: str | None = None) -> int:
-    """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices, 1024 on
-    accelerators (measured: README, 'Performance and solvers' and 'Where it runs')."""
+def default_chunk_size(platform: str | None = None, solve: str = "segments") -> int:
+    """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices; on
+    accelerators 4096 for ``solve="segments"`` and 65536 for ``"one_loop"``, whose members cost
+    little more an iteration in larger batches until the device fills (measured: README, 'Where
+    it runs')."""
+    if solve not in SOLVES:
+        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
     platform = jax.devices()[0].platform if platform is None else platform
-    return DEFAULT_CHUNK_SIZE.get(platform, DEFAULT_CHUNK_SIZE_ACCELERATOR)
+    return DEFAULT_CHUNK_SIZE_CPU if platform == "cpu" else DEFAULT_CHUNK_SIZE_ACCELERATOR[solve]
 
 
 def padded_rows(chunk_points, n_devices) -> int:
@@ -259,12 +263,12 @@ def padded_rows(chunk_points, n_devices) -> int:
     return max(2, math.ceil(chunk_points / n_devices)) * n_devices
 
 
-def chunk_points(chunk_size, n_devices, n_points) -> int:
-    """Points per chunk: ``chunk_size`` (default `default_chunk_size`) per device, but a small
-    sweep is never padded beyond one round of the devices."""
+def chunk_points(chunk_size, n_devices, n_points, solve="segments") -> int:
+    """Points per chunk: ``chunk_size`` (default `default_chunk_size` of ``solve``) per device,
+    but a small sweep is never padded beyond one round of the devices."""
     if chunk_size is not None and (
         isinstance(chunk_size, bool) or int(chunk_size) != chunk_size or chunk_size < 1
     ):
         raise ValueError(f"chunk_size must be a positive integer; got {chunk_size!r}.")
-    per_device = default_chunk_size() if chunk_size is None else int(chunk_size)
+    per_device = default_chunk_size(solve=solve) if chunk_size is None else int(chunk_size)
     return max(1, min(per_device * n_devices, math.ceil(n_points / n_devices) * n_devices))

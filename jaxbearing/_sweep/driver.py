@@ -53,8 +53,9 @@ def sweep(
             `life.metric` and functions marked ``sample_free = True`` come from the solve's
             per-step records), else ``linspace(t0, t1, 2001)``.
         out: folder to write to and resume from (see the package doc), or None.
-        chunk_size: points per device per chunk (default `default_chunk_size()`: 32 on CPU, 1024
-            on accelerators; or the layout already in ``out``).
+        chunk_size: points per device per chunk (default `default_chunk_size`: 32 on CPU; on
+            accelerators 4096, or 65536 with ``solve="one_loop"``; or the layout already in
+            ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
         solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
             `simulate_one_loop` run (one while loop a member, no output times: for large
@@ -83,7 +84,8 @@ def sweep(
     request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve)
     out = None if out is None else Path(out)
     n_devices = jax.device_count()
-    chunk_points = arguments.chunk_points(chunk_size, n_devices, request.points.shape[0])
+    n_points = request.points.shape[0]
+    chunk_points = arguments.chunk_points(chunk_size, n_devices, n_points, request.solve)
     record = store.manifest(model, request)
     metric_names = [name for name, _ in request.metric_items]
     state = store.restore(out, record, chunk_size, chunk_points, n_devices, request.points, metric_names)
