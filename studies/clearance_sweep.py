@@ -9,10 +9,14 @@ interruption), then ``OUT/results.nc`` and one heatmap PNG per metric.
     python studies/clearance_sweep.py             # 8 x 4 grid, 5–80 µm x e 0.5–1.0, 0–0.2 s
     python studies/clearance_sweep.py --quick     # 2 x 2 grid, 0–0.12 s (first impacts)
     python studies/clearance_sweep.py --out DIR --samples 20001
+    python studies/clearance_sweep.py --grid 256 256 --solve one_loop   # a dense map, on a GPU
 
 Prints the throughput in simulations per second (with and without the first chunk, which
 includes compilation). For several CPU cores as devices, run with
-``XLA_FLAGS=--xla_force_host_platform_device_count=2``.
+``XLA_FLAGS=--xla_force_host_platform_device_count=2``. ``--grid NC NE`` spaces NC clearances
+and NE restitutions evenly over the same ranges; ``--solve one_loop`` runs each member as one
+while loop (`jaxbearing.simulate_one_loop`: the fast path on a GPU, metrics within the solver's
+accuracy of the default solve's).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import numpy as np
 from jaxbearing.compile import enable_entry_elimination, enable_loop_kernels
 
 CLEARANCES_UM = [5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 80.0]  # the paper's 40 µm among them
+ANNOTATED = 16  # grids up to this many values a side get their numbers printed and on the map
 RESTITUTIONS = [0.5, 0.7, 0.9, 1.0]  # the paper's 0.9 among them
 QUICK_CLEARANCES_UM = [20.0, 60.0]
 QUICK_RESTITUTIONS = [0.7, 1.0]
@@ -48,6 +53,10 @@ def main(argv=None) -> int:
     parser.add_argument("--samples", type=int, default=None,
                         help="output times (default: the sweep's, [0, t1]: the metrics are exact without samples)")
     parser.add_argument("--chunk-size", type=int, default=None, help="points per device per chunk")
+    parser.add_argument("--grid", type=int, nargs=2, metavar=("NC", "NE"), default=None,
+                        help="NC clearances over 5-80 µm x NE restitutions over 0.5-1.0, evenly spaced")
+    parser.add_argument("--solve", choices=("segments", "one_loop"), default="segments",
+                        help="a member's solve (jaxbearing.sweep's solve=)")
     args = parser.parse_args(argv)
 
     import jax
@@ -57,8 +66,14 @@ def main(argv=None) -> int:
     import jaxbearing as jb
     from jaxbearing import sweep
 
-    clearances = np.array(QUICK_CLEARANCES_UM if args.quick else CLEARANCES_UM) * 1e-6
-    restitutions = np.array(QUICK_RESTITUTIONS if args.quick else RESTITUTIONS)
+    if args.grid is not None:
+        if min(args.grid) < 2:
+            parser.error(f"--grid needs at least 2 values a side; got {args.grid[0]} {args.grid[1]}")
+        clearances = np.linspace(CLEARANCES_UM[0], CLEARANCES_UM[-1], args.grid[0]) * 1e-6
+        restitutions = np.linspace(RESTITUTIONS[0], RESTITUTIONS[-1], args.grid[1])
+    else:
+        clearances = np.array(QUICK_CLEARANCES_UM if args.quick else CLEARANCES_UM) * 1e-6
+        restitutions = np.array(QUICK_RESTITUTIONS if args.quick else RESTITUTIONS)
     t1 = args.t1 if args.t1 is not None else (0.12 if args.quick else 0.2)
     ts = None if args.samples is None else np.linspace(0.0, t1, args.samples)
     out = Path(args.out or ("results/clearance_sweep_quick" if args.quick else "results/clearance_sweep"))
@@ -74,6 +89,7 @@ def main(argv=None) -> int:
         ts=ts,
         out=out,
         chunk_size=args.chunk_size,
+        solve=args.solve,
     )
     wall = time.perf_counter() - tic
     _report_speed(ds, wall)
@@ -102,6 +118,9 @@ def _report_speed(ds, wall):
 
 def _print_table(ds):
     clear = ds["bearing.clearance"].values * 1e6
+    if max(clear.size, ds["impact.restitution"].size) > ANNOTATED:
+        _print_extremes(ds)
+        return
     for name in PLOTTED:
         print(f"\n{name} [N]; rows: clearance [µm], columns: restitution")
         print("        " + "".join(f"{e:>9.2f}" for e in ds["impact.restitution"].values))
@@ -113,6 +132,22 @@ def _print_table(ds):
         print(f"\n{failed} simulations failed (status codes {sorted(set(ds.status.values.ravel()) - {0})})")
 
 
+def _print_extremes(ds):
+    """For grids too large to print: each plotted metric's least and largest value and where."""
+    for name in PLOTTED:
+        values = ds[name].values
+        if not np.isfinite(values).any():
+            print(f"\n{name}: every simulation failed")
+            continue
+        for what, pick in (("least", np.nanargmin), ("largest", np.nanargmax)):
+            i, j = np.unravel_index(pick(values), values.shape)
+            print(f"{name}: {what} {values[i, j]:.0f} N at P_d = {ds['bearing.clearance'].values[i] * 1e6:.2f} µm, "
+                  f"e = {ds['impact.restitution'].values[j]:.3f}")
+    failed = int(ds.failed.sum())
+    if failed:
+        print(f"{failed} simulations failed (status codes {sorted(set(ds.status.values.ravel()) - {0})})")
+
+
 def _heatmap(ds, name, label, path):
     import matplotlib
 
@@ -122,19 +157,24 @@ def _heatmap(ds, name, label, path):
     values = ds[name].values.T  # rows: restitution, columns: clearance
     clear = ds["bearing.clearance"].values * 1e6
     rest = ds["impact.restitution"].values
-    fig, ax = plt.subplots(figsize=(1.0 + 0.9 * clear.size, 1.2 + 0.6 * rest.size), layout="constrained")
-    image = ax.imshow(np.ma.masked_invalid(values), origin="lower", aspect="auto", cmap="viridis")
-    ax.set_xticks(range(clear.size), [f"{c:g}" for c in clear])
-    ax.set_yticks(range(rest.size), [f"{e:g}" for e in rest])
+    masked = np.ma.masked_invalid(values)
+    if max(clear.size, rest.size) > ANNOTATED:  # a dense map: axes in the parameters' units
+        fig, ax = plt.subplots(figsize=(7.0, 5.0), layout="constrained")
+        image = ax.pcolormesh(clear, rest, masked, shading="nearest", cmap="viridis")
+    else:  # one labelled cell a point, its value printed on it
+        fig, ax = plt.subplots(figsize=(1.0 + 0.9 * clear.size, 1.2 + 0.6 * rest.size), layout="constrained")
+        image = ax.imshow(masked, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(clear.size), [f"{c:g}" for c in clear])
+        ax.set_yticks(range(rest.size), [f"{e:g}" for e in rest])
+        finite = values[np.isfinite(values)]
+        middle = 0.5 * (finite.min() + finite.max()) if finite.size else 0.0
+        for (j, i), v in np.ndenumerate(values):
+            text = f"{v:.0f}" if np.isfinite(v) else "failed"
+            ax.text(i, j, text, ha="center", va="center", fontsize=8,
+                    color="black" if np.isfinite(v) and v > middle else "white")
     ax.set_xlabel("diametral clearance P_d [µm]")
     ax.set_ylabel("restitution e_c")
     ax.set_title(label)
-    finite = values[np.isfinite(values)]
-    middle = 0.5 * (finite.min() + finite.max()) if finite.size else 0.0
-    for (j, i), v in np.ndenumerate(values):
-        text = f"{v:.0f}" if np.isfinite(v) else "failed"
-        ax.text(i, j, text, ha="center", va="center", fontsize=8,
-                color="black" if np.isfinite(v) and v > middle else "white")
     fig.colorbar(image, ax=ax, label="N")
     fig.savefig(path, dpi=120)
     plt.close(fig)

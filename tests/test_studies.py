@@ -1,6 +1,7 @@
 """Every study runs in its quick mode and writes its outputs."""
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -9,6 +10,7 @@ import pytest
 
 ROOT = Path(__file__).parent.parent
 TUNE = ROOT / "studies" / "tune_clearance.py"
+SWEEP = ROOT / "studies" / "clearance_sweep.py"
 # life_clearance: ~3 min quick (a tight-tolerance derivative check and a tuning compile);
 # xu2014: 36 s, the same command line that tests/test_cli.py runs end to end
 SLOW_STUDIES = {"life_clearance.py", "xu2014.py"}
@@ -31,6 +33,22 @@ def run(script, *args):
 def test_study_runs_quick(script, tmp_path):
     run(script, "--quick", "--out", str(tmp_path))
     assert any(tmp_path.iterdir())
+
+
+def test_dense_map_with_the_one_loop_solve(tmp_path):
+    """``--grid`` spaces the values evenly, ``--solve`` reaches the sweep; a grid too large to
+    print reports each metric's extremes, which are those of the written results."""
+    import xarray as xr
+
+    stdout = run(SWEEP, "--grid", "17", "2", "--t1", "0.045", "--solve", "one_loop", "--out", str(tmp_path))
+    ds = xr.open_dataset(tmp_path / "results.nc")
+    assert dict(ds.sizes) == {"bearing.clearance": 17, "impact.restitution": 2}
+    assert not ds.failed.any()
+    assert json.loads((tmp_path / "manifest.json").read_text())["solve"] == "one_loop"
+    assert ds["bearing.clearance"].values[[0, -1]].tolist() == pytest.approx([5e-6, 80e-6])
+    printed = re.search(r"peak_ball_load: largest (\d+) N", stdout)
+    assert printed and int(printed[1]) == round(float(ds.peak_ball_load.max()))
+    assert (tmp_path / "peak_ball_load.png").stat().st_size > 10_000
 
 
 @pytest.mark.slow  # ~150 s: two reverse-mode compilations of the paper's case
