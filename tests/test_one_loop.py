@@ -115,6 +115,19 @@ def test_a_failed_run_says_so(paper_case):
         jb.simulate_one_loop(model, T1, window_edges=EDGES, max_steps=50)
 
 
+def test_a_contact_switched_on_while_overlapping_is_named(paper_case):
+    """The paper's circles overlap at 1 ms: the contact force jumps on there, so no step across
+    is accepted; the run fails with the cause `simulate` reports (tests/test_validation.py),
+    not as a step size that fell to nothing."""
+    model, _, _ = paper_case
+    early = jb.paths.replace(model, {"contacts.0.active_from": 0.001})
+    sol = jb.simulate_one_loop(early, T1, window_edges=EDGES, throw=False)
+    assert sol.result == jb.RESULTS.contact_overlap
+    assert float(sol.t_final) == pytest.approx(0.001, abs=1e-12)
+    with pytest.raises(jb.SimulationError, match=r"a contact switched on \(its active_from\) while"):
+        jb.simulate_one_loop(early, T1, window_edges=EDGES)
+
+
 def test_parameters_changed_after_construction_are_checked(paper_case):
     model, _, _ = paper_case
     bad = jb.paths.replace(model, {"bearing.clearance": -1e-6})  # as eqx.tree_at would

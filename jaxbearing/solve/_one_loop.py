@@ -26,6 +26,9 @@ so its metrics agree with `simulate`'s to the solver's accuracy (not to the last
 differ where `simulate` restarts a segment). It keeps no output times (the `Solution` has two:
 t0 and the time reached) and is not differentiable (use `simulate`). Where `simulate` counts
 ``max_steps`` per segment, here it bounds the steps (accepted and rejected) of the whole run.
+A member fails (`RESULTS`) when its steps run out, when a proposed step falls below
+`SMALLEST_STEP`, and, as in `simulate`, when a contact switches on while its surfaces overlap
+(there its force jumps, so such a member's steps shrink until they fall below `SMALLEST_STEP`).
 """
 
 from __future__ import annotations
@@ -52,7 +55,7 @@ from ._recording import (
     fatigue_size,
     peak_size,
 )
-from ._segment import EVENT_TIME_TOLERANCE, _ITPState, _switch, event_values, itp_start, itp_step
+from ._segment import EVENT_TIME_TOLERANCE, JUMP, _ITPState, _switch, event_values, itp_start, itp_step
 from ._simulate import (
     ATOL,
     INITIAL_STEP,
@@ -262,6 +265,12 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         reached = at_stop & (stop >= t1)
         too_small = stepping & ~keep & (h_next < SMALLEST_STEP)
         out_of_steps = stepping & (s.steps + 1 >= max_steps) & ~reached
+        if has_events:
+            # steps that shrink to nothing before the end of a switch-on time (``active_from``)
+            # whose event value, at the state they start from, jumps: a contact switched on
+            # while its surfaces overlap (its force jumps too, and no step across is accepted)
+            jumps = event_max(t_b, s.y, s.in_contact, s.engaged) > JUMP
+            overlap = overlap | (too_small & jumps)
         result = RESULTS.where(too_small, RESULTS.dt_min_reached, s.result)
         result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
         result = RESULTS.where(overlap, RESULTS.contact_overlap, result)
