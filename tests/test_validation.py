@@ -235,6 +235,9 @@ BAD_INPUTS = [
      r"t1 must be a finite number \[s\]; got t1 = inf\."),
     (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=0.01, ts=[0.0, np.nan]),
      r"ts must be finite \[s\]; got ts\[1\] = nan\."),
+    (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5, 2e-5, 4e-5]}, t1=0.05),
+     r"bearing\.clearance repeats \[4e-05\]: the values of a grid axis label its results and must differ "
+     r"\(grid=False takes a list of points, repeats allowed\)\."),
     (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=0.03),
      r"The standard metrics read the window from t = 0\.04 s \(metrics\.T_MIN\), which t1 = 0\.03 s does "
      r"not reach: simulate longer, or pass metrics with an earlier t_min"),

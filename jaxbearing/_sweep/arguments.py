@@ -123,6 +123,13 @@ def parameters(model, params):
 def grid_points(names, axes, grid):
     """(points, result shape): every combination (grid) or the i-th values together (list)."""
     if grid:
+        for name, a in zip(names, axes):
+            values, counts = np.unique(a, return_counts=True)
+            if (counts > 1).any():
+                raise ValueError(
+                    f"{name} repeats {values[counts > 1].tolist()}: the values of a grid axis label "
+                    "its results and must differ (grid=False takes a list of points, repeats allowed)."
+                )
         shape = tuple(a.size for a in axes)
         mesh = np.meshgrid(*axes, indexing="ij")
         return np.stack([m.ravel() for m in mesh], axis=1), shape

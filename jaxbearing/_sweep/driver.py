@@ -44,7 +44,8 @@ def sweep(
             (a function of the solution and the member's model, e.g. `life.metric`) (default
             `jaxbearing.metrics.STANDARD`). Names must differ from the parameter paths and from
             ``status``, ``failed``, ``point``.
-        grid: True: every combination of the values (dimensions in the order of ``params``).
+        grid: True: every combination of the values (dimensions in the order of ``params``;
+            an axis's values must differ).
             False: a list of points, the i-th value of every parameter together (all arrays of
             one length; dimension ``point``).
         t1: final time [s] of every simulation.
