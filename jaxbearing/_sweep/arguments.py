@@ -124,7 +124,7 @@ def grid_points(names, axes, grid):
     """(points, result shape): every combination (grid) or the i-th values together (list)."""
     if grid:
         for name, a in zip(names, axes):
-            values, counts = np.unique(a, return_counts=True)
+            values, counts = np.unique(a[np.isfinite(a)], return_counts=True)  # NaN: check_points
             if (counts > 1).any():
                 raise ValueError(
                     f"{name} repeats {values[counts > 1].tolist()}: the values of a grid axis label "
