@@ -319,7 +319,7 @@ def _sweep(args):
         device_kind=device.device_kind,
         points=int(points),
         output_times=int(ds.attrs["ts"].size),
-        chunk_size=args.chunk_size or default_chunk_size(),
+        chunk_size=args.chunk_size or default_chunk_size(solve=kwargs.get("solve", "segments")),
         wall_s=wall,
         first_call_s=first,
         throughput=None if wall is None else points / wall,
