@@ -266,11 +266,11 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         too_small = stepping & ~keep & (h_next < SMALLEST_STEP)
         out_of_steps = stepping & (s.steps + 1 >= max_steps) & ~reached
         if has_events:
-            # steps that shrink to nothing before the end of a switch-on time (``active_from``)
-            # whose event value, at the state they start from, jumps: a contact switched on
-            # while its surfaces overlap (its force jumps too, and no step across is accepted)
-            jumps = event_max(t_b, s.y, s.in_contact, s.engaged) > JUMP
-            overlap = overlap | (too_small & jumps)
+            # a step shrunk to nothing whose event value at its end is above `JUMP` holds a
+            # jump: a contact switched on (``active_from``) while its surfaces overlap, whose
+            # force jumps too, so that no step across is accepted (a continuous event value
+            # cannot move by 1 nm in such a step)
+            overlap = overlap | (too_small & (value_b > JUMP))
         result = RESULTS.where(too_small, RESULTS.dt_min_reached, s.result)
         result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
         result = RESULTS.where(overlap, RESULTS.contact_overlap, result)
