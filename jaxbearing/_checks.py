@@ -107,7 +107,7 @@ def finite_leaves(module, prefix: str = "") -> list:
     for path, leaf in jax.tree_util.tree_leaves_with_path(module):
         if eqx.is_inexact_array(leaf) or isinstance(leaf, (float, np.floating)):  # tree_at may set floats
             name = prefix + jax.tree_util.keystr(path, simple=True, separator=".")
-            rules.append((~jnp.isfinite(leaf), f"{name} must be finite (not NaN or infinite)", leaf))
+            rules.append(finite(name, leaf))
     return rules
 
 
@@ -115,6 +115,11 @@ def check_init(module) -> None:
     """The construction check of a parameter Module: every floating leaf finite (named
     ``Class.field``), then the Module's own ``violations()``."""
     raise_if_concrete(finite_leaves(module, f"{type(module).__name__}.") + module.violations())
+
+
+def finite(name: str, value):
+    """The rule that ``value`` is finite (a NaN passes every comparison rule)."""
+    return (~jnp.isfinite(value), f"{name} must be finite (not NaN or infinite)", value)
 
 
 def positive(name: str, value, unit: str):

@@ -37,8 +37,8 @@ ISO_REDUCTION = 0.957
 
 
 def _finite(**values):
-    """One rule per named value: it must be finite (a NaN passes every comparison rule)."""
-    return [(~jnp.isfinite(v), f"{name} must be finite (not NaN or infinite)", v) for name, v in values.items()]
+    """`_checks.finite` of each named value."""
+    return [_checks.finite(name, v) for name, v in values.items()]
 
 
 def _geometry_rules(n_balls, ball_diameter, pitch_diameter, contact_angle):
