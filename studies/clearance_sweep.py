@@ -116,17 +116,22 @@ def _report_speed(ds, wall):
         print(f"  after the first chunk (compilation): {rest / later:.2f} simulations/s")
 
 
+def _dense(ds) -> bool:
+    """Whether the grid has more than `ANNOTATED` values a side: too many to print each."""
+    return max(ds["bearing.clearance"].size, ds["impact.restitution"].size) > ANNOTATED
+
+
 def _print_table(ds):
     clear = ds["bearing.clearance"].values * 1e6
-    if max(clear.size, ds["impact.restitution"].size) > ANNOTATED:
+    if _dense(ds):
         _print_extremes(ds)
-        return
-    for name in PLOTTED:
-        print(f"\n{name} [N]; rows: clearance [µm], columns: restitution")
-        print("        " + "".join(f"{e:>9.2f}" for e in ds["impact.restitution"].values))
-        for i, c in enumerate(clear):
-            row = ds[name].values[i]
-            print(f"{c:7.1f} " + "".join(f"{v:9.0f}" if np.isfinite(v) else "   failed" for v in row))
+    else:
+        for name in PLOTTED:
+            print(f"\n{name} [N]; rows: clearance [µm], columns: restitution")
+            print("        " + "".join(f"{e:>9.2f}" for e in ds["impact.restitution"].values))
+            for i, c in enumerate(clear):
+                row = ds[name].values[i]
+                print(f"{c:7.1f} " + "".join(f"{v:9.0f}" if np.isfinite(v) else "   failed" for v in row))
     failed = int(ds.failed.sum())
     if failed:
         print(f"\n{failed} simulations failed (status codes {sorted(set(ds.status.values.ravel()) - {0})})")
@@ -143,9 +148,6 @@ def _print_extremes(ds):
             i, j = np.unravel_index(pick(values), values.shape)
             print(f"{name}: {what} {values[i, j]:.0f} N at P_d = {ds['bearing.clearance'].values[i] * 1e6:.2f} µm, "
                   f"e = {ds['impact.restitution'].values[j]:.3f}")
-    failed = int(ds.failed.sum())
-    if failed:
-        print(f"{failed} simulations failed (status codes {sorted(set(ds.status.values.ravel()) - {0})})")
 
 
 def _heatmap(ds, name, label, path):
@@ -158,7 +160,7 @@ def _heatmap(ds, name, label, path):
     clear = ds["bearing.clearance"].values * 1e6
     rest = ds["impact.restitution"].values
     masked = np.ma.masked_invalid(values)
-    if max(clear.size, rest.size) > ANNOTATED:  # a dense map: axes in the parameters' units
+    if _dense(ds):  # axes in the parameters' units
         fig, ax = plt.subplots(figsize=(7.0, 5.0), layout="constrained")
         image = ax.pcolormesh(clear, rest, masked, shading="nearest", cmap="viridis")
     else:  # one labelled cell a point, its value printed on it
