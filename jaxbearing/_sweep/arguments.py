@@ -54,8 +54,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
     """Check every argument of `jaxbearing.sweep` (ValueError/TypeError naming the fix)."""
     if not isinstance(model, Mechanism):
         raise TypeError(f"sweep needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    if solve not in SOLVES:
-        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
+    _check_solve(solve)
     names, axes = parameters(model, params)
     points, shape = grid_points(names, axes, grid)
     items = metric_items(metrics, names)
@@ -251,13 +250,17 @@ def _violation_flags(model, names, points, t0):
     return jax.vmap(one)(points)
 
 
+def _check_solve(solve):
+    if solve not in SOLVES:
+        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
+
+
 def default_chunk_size(platform: str | None = None, solve: str = "segments") -> int:
     """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices; on
     accelerators 4096 for ``solve="segments"`` and 65536 for ``"one_loop"``, whose members cost
     little more an iteration in larger batches until the device fills (measured: README, 'Where
     it runs')."""
-    if solve not in SOLVES:
-        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
+    _check_solve(solve)
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE_CPU if platform == "cpu" else DEFAULT_CHUNK_SIZE_ACCELERATOR[solve]
 
