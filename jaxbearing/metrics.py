@@ -17,6 +17,8 @@ differentiation transforms:
   step's end and 3 Gauss–Legendre points): differentiable almost everywhere, with the derivative
   of the point that attains the maximum, which jumps when another point takes over; fine for
   sensitivities at one design point, poor for optimisation;
+- `peak_time` and `peak_ball` say when an exact peak is attained and which ball carries the
+  peak ball load: the earliest recorded point that attains it (no derivative);
 - the smooth versions (``smooth_*``) replace the maximum by the power mean
   (1/T integral x^p dt)^(1/p) over the window of duration T, which lies below the maximum,
   approaches it as p grows, and is differentiable everywhere: use them as objectives for
@@ -276,6 +278,55 @@ def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=N
     if sol.target is not None:
         return _peak(sol, PEAK_DISPLACEMENT + sol.target, t_min, t_max)
     return 0.0 * _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)  # NaN for a window without value
+
+
+def _peak_column(sol: Solution, metric) -> int:
+    """The `SegmentStats` column of an exact peak metric."""
+    columns = {
+        peak_ball_load: PEAK_BALL_LOAD,
+        peak_bearing_force: PEAK_BEARING_FORCE,
+        peak_impact_force: PEAK_CONTACT_FORCE,
+    }
+    if metric in columns:
+        if metric is not peak_impact_force:
+            _require_bearing(sol)
+        return columns[metric]
+    if metric is max_target_displacement:
+        if sol.target is None:
+            raise ValueError("This solution has no impact target (its model has no contact).")
+        return PEAK_DISPLACEMENT + sol.target
+    raise ValueError(
+        "metric must be one of the exact peaks peak_ball_load, peak_bearing_force, "
+        f"peak_impact_force or max_target_displacement; got {metric!r}."
+    )
+
+
+def _where_peak(sol: Solution, column, t_min, t_max):
+    """(interval attaining the peak of ``column`` in the window (the earliest of equals), and
+    whether the window has a value)."""
+    inside, ok = _inside(sol, t_min, t_max)
+    i = jnp.argmax(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
+    return i, ok & jnp.any(inside)
+
+
+def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
+    `peak_impact_force`, or `max_target_displacement` of the target) is attained in the window:
+    the earliest recorded point that attains it (`SegmentStats.peak_times`), so independent of
+    the output times. No derivative: the point that attains a maximum moves in jumps. In a
+    sweep, pass e.g. ``functools.partial(peak_time, metric=peak_impact_force)``."""
+    column = _peak_column(sol, metric)
+    i, has_value = _where_peak(sol, column, t_min, t_max)
+    time = jax.lax.stop_gradient(sol.segments.peak_times[i, column])
+    return jnp.where(has_value, time, jnp.nan)
+
+
+def peak_ball(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """The ball that carries `peak_ball_load` in the window: its column of
+    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced)."""
+    _require_bearing(sol)
+    i, has_value = _where_peak(sol, PEAK_BALL_LOAD, t_min, t_max)
+    return jnp.where(has_value, sol.segments.peak_ball[i], -1)
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:

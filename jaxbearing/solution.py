@@ -92,6 +92,12 @@ class SegmentStats(eqx.Module):
             FORCE_SCALE)^POWER [s], and 1 (the interval's solved duration) [s]. Columns
             ``INT_*``.
         valid: (C,) bool, True where the interval holds part of the solved span.
+        peak_times: (C, 3 + n_coordinates) [s], where each of ``peaks`` is attained: the
+            earliest recorded point that attains it (so, for a smooth maximum, within the
+            spacing of the points, under half a step, of where the interpolant peaks); NaN in
+            intervals the solve did not reach.
+        peak_ball: (C,) int, the ball (column of `Solution.ball_loads`, 0 = ball 1) that
+            carries the largest ball load at its peak; 0 without a bearing.
     """
 
     t_start: jax.Array
@@ -99,6 +105,8 @@ class SegmentStats(eqx.Module):
     peaks: jax.Array
     integrals: jax.Array
     valid: jax.Array
+    peak_times: jax.Array
+    peak_ball: jax.Array
 
 
 class FatigueStats(eqx.Module):

@@ -68,15 +68,21 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
 
 
 def fake_segments(ts, loads, bearing, contact):
-    """`SegmentStats`-like peaks of the samples over the intervals between the stops that a
-    solve of [ts[0], ts[-1]] has (t0, `metrics.T_MIN` where inside, t1)."""
+    """`SegmentStats`-like peaks of the samples, their times and the peak ball, over the
+    intervals between the stops that a solve of [ts[0], ts[-1]] has (t0, `metrics.T_MIN` where
+    inside, t1)."""
     edges = np.unique(np.clip([ts[0], report.PEAK_FROM, ts[-1]], ts[0], ts[-1]))
-    rows = []
+    rows, times, balls = [], [], []
     for a, b in zip(edges[:-1], edges[1:]):
-        inside = (ts >= a) & (ts <= b)
-        rows.append([loads[inside].max(), bearing[inside].max(), contact[inside].max()] + [0.0] * 12)
+        inside = np.flatnonzero((ts >= a) & (ts <= b))
+        largest = loads[inside].max(axis=1)
+        series = (largest, bearing[inside], contact[inside])
+        rows.append([x.max() for x in series] + [0.0] * 12)
+        times.append([ts[inside[np.argmax(x)]] for x in series] + [a] * 12)
+        balls.append(np.argmax(loads[inside[np.argmax(largest)]]))
     return SimpleNamespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
-                           valid=np.ones(len(rows), bool))
+                           valid=np.ones(len(rows), bool), peak_times=np.array(times),
+                           peak_ball=np.array(balls))
 
 
 def test_series_names_and_values():
@@ -183,17 +189,24 @@ def test_summarize_is_json_ready(tmp_path):
 
 
 def test_summary_peaks_come_from_the_solution_not_the_samples():
-    """The summary's peaks are `jb.metrics`' (every step and its interpolant, recorded per stop
-    interval), not the largest sample; their time is the largest sample's; NaN in a window the
-    run did not reach."""
+    """The summary's peaks, their times and the peak ball are `jb.metrics`' (every step and its
+    interpolant, recorded per stop interval), not the largest sample's; NaN (ball None) in a
+    window the run did not reach."""
     ts = np.linspace(0.0, 0.1, 11)
-    sol = fake_solution(ts, contact_force=np.where(ts > 0.085, 50.0, 0.0))
+    loads = np.zeros((11, 8))
+    loads[9, 1] = 5.0  # ball 2 carries the largest sampled load
+    sol = fake_solution(ts, ball_loads=loads, contact_force=np.where(ts > 0.085, 50.0, 0.0))
+    assert report.summarize(sol)["peak_ball_load_ball"] == 2
     sol.segments.peaks[-1, :3] = [7.0, 6.0, 64.0]  # between samples, after 0.04 s
+    sol.segments.peak_times[-1, :3] = [0.0512, 0.0634, 0.0937]
+    sol.segments.peak_ball[-1] = 4
     s = report.summarize(sol)
     assert (s["peak_ball_load_N"], s["peak_bearing_force_N"], s["peak_impact_force_N"]) == (7.0, 6.0, 64.0)
-    assert s["peak_impact_force_time_s"] == pytest.approx(0.09)  # the first sample at 50 N
+    times = (s["peak_ball_load_time_s"], s["peak_bearing_force_time_s"], s["peak_impact_force_time_s"])
+    assert times == (0.0512, 0.0634, 0.0937) and s["peak_ball_load_ball"] == 5
     early = report.summarize(fake_solution(np.linspace(0.0, 0.03, 4)))
     assert math.isnan(early["peak_bearing_force_N"]) and math.isnan(early["peak_ball_load_N"])
+    assert math.isnan(early["peak_ball_load_time_s"]) and early["peak_ball_load_ball"] is None
     assert early["peak_impact_force_N"] == 0.0
 
 

@@ -74,6 +74,28 @@ def test_metrics_agree_with_dense_samples(dense, coarse):
     assert float(M.smooth_peak_ball_load(dense, t_min=0.0)) == pytest.approx(smooth, rel=1e-4)
 
 
+@pytest.mark.parametrize("t_min", [0.0, 0.01])  # 0.01 s: a time-cell end
+def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
+    """`peak_time` and `peak_ball` are the same whatever the output times; the solution takes
+    the peak value at `peak_time`: samples 1 µs apart, interpolated linearly there, agree within
+    2e-5 (the interpolation's error near a maximum, f'' (1 µs)^2 / 8: measured up to 7e-6 at
+    the sharp first peak); the ball is the one the largest sample names."""
+    ts = np.asarray(dense.ts)
+    after = ts >= t_min
+    loads = np.where(after[:, None], np.asarray(dense.ball_loads), -np.inf)
+    bearing = np.where(after, np.linalg.norm(np.asarray(dense.bearing_force), axis=1), -np.inf)
+    for peak, sampled in ((M.peak_ball_load, loads.max(axis=1)), (M.peak_bearing_force, bearing)):
+        time = float(M.peak_time(dense, peak, t_min=t_min))
+        assert time == float(M.peak_time(coarse, peak, t_min=t_min)), peak.__name__
+        value = float(peak(dense, t_min=t_min))
+        assert np.interp(time, ts, sampled) == pytest.approx(value, rel=2e-5), peak.__name__
+    ball = int(M.peak_ball(dense, t_min=t_min))
+    assert ball == int(M.peak_ball(coarse, t_min=t_min))
+    assert ball == np.argmax(loads[np.argmax(loads.max(axis=1))])
+    with pytest.raises(ValueError, match="exact peaks"):
+        M.peak_time(dense, M.rms_bearing_force)
+
+
 def test_window_edges_must_be_stops(model, coarse):
     with pytest.raises(ValueError, match="window_edges"):
         M.rms_bearing_force(coarse, t_min=EDGE)
@@ -116,12 +138,14 @@ def test_smooth_metrics_have_exact_derivatives():
 def test_metrics_do_not_depend_on_the_output_times():
     """The paper's case with impact over 0.2 s: every metric the same at 21 ... 200 001 output
     times (the sample maxima of 2001 outputs were up to 30 % low), the peak impact force within
-    1 % of the maximum over 200 001 samples."""
+    1 % of the maximum over 200 001 samples and its time within 1 µs of that sample's."""
     model, t1 = jb.cases.xu2014(impact=True), 0.2
-    values = {}
+    values, times = {}, set()
     for n in (21, 201, 2001, 200_001):
         sol = jb.simulate(model, t1, jnp.linspace(0.0, t1, n))
         values[n] = {name: float(fn(sol)) for name, fn in {**M.STANDARD, **M.SMOOTH}.items()}
+        times.add(float(M.peak_time(sol, M.peak_impact_force)))
+    assert len(times) == 1  # the same time whatever the output times
     for n in (21, 201, 2001):
         for name, value in values[n].items():
             assert value == pytest.approx(values[200_001][name], rel=0.005), (n, name)
@@ -129,3 +153,5 @@ def test_metrics_do_not_depend_on_the_output_times():
     sampled = float(np.max(np.asarray(sol.contact_force)[after]))
     assert values[200_001]["peak_impact_force"] == pytest.approx(sampled, rel=0.01)
     assert values[200_001]["peak_impact_force"] >= sampled * (1 - 1e-3)
+    at = np.asarray(sol.ts)[np.argmax(np.where(after, np.asarray(sol.contact_force), -np.inf))]
+    assert times.pop() == pytest.approx(at, abs=1e-6)

@@ -10,8 +10,7 @@ import numpy as np
 from .. import metrics
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
 from ..metrics import T_MIN
-from ._series import Peak, as_series, ball_keys, contact_intervals, first_contact, onsets
-from ._series import peak, series
+from ._series import as_series, ball_keys, contact_intervals, first_contact, onsets, series
 
 PEAK_FROM = T_MIN  # [s] peaks are taken after the bearing's start-up transient (docs/model.md)
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
@@ -77,17 +76,18 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     ``_time_s``, and ``peak_ball_load_ball``; ``peak_window_from_s``, ``max_drift`` (max |Phi|
     [m or rad]), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
 
-    The peaks are `jaxbearing.metrics`' (from every solver step and its interpolant, whatever
-    the output times; NaN where the run ended before ``t_min``); their time and ball are those of
-    the largest output sample, so they are as fine as the sampling.
+    The peaks, their times and the ball are `jaxbearing.metrics`' (from every solver step and
+    its interpolant, whatever the output times; NaN, and ball None, where the run ended before
+    ``t_min``); the balls are numbered from 1.
     """
     data = series(sol)
     times, speeds = onsets(sol)
     first_t, first_v = first_contact(sol)
     has_bearing = sol.bearing_force is not None
-    impact = peak(data, "contact_force")
-    bearing = peak(data, "bearing_f", t_min) if has_bearing else Peak(math.nan, math.nan, None)
-    ball = peak(data, "ball_loads", t_min)
+    impact, impact_t = _metric_peak(metrics.peak_impact_force, sol, -math.inf)
+    bearing, bearing_t = _metric_peak(metrics.peak_bearing_force, sol, t_min, has_bearing)
+    ball, ball_t = _metric_peak(metrics.peak_ball_load, sol, t_min, has_bearing)
+    which = int(metrics.peak_ball(sol, t_min=t_min)) + 1 if math.isfinite(ball) else None
     drift = np.asarray(sol.drift, dtype=float)
     return {
         "t_final_s": float(sol.t_final),
@@ -97,13 +97,13 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "contact_count": int(times.size),
         "onsets": [[float(a), float(b)] for a, b in zip(times, speeds)],
         "contact_intervals": [list(x) for x in contact_intervals(data)],
-        "peak_impact_force_N": _metric_peak(metrics.peak_impact_force, sol, -math.inf),
-        "peak_impact_force_time_s": impact.time,
-        "peak_bearing_force_N": _metric_peak(metrics.peak_bearing_force, sol, t_min, has_bearing),
-        "peak_bearing_force_time_s": bearing.time,
-        "peak_ball_load_N": _metric_peak(metrics.peak_ball_load, sol, t_min, has_bearing),
-        "peak_ball_load_time_s": ball.time,
-        "peak_ball_load_ball": int(ball.key[4:]) if ball.key else None,
+        "peak_impact_force_N": impact,
+        "peak_impact_force_time_s": impact_t,
+        "peak_bearing_force_N": bearing,
+        "peak_bearing_force_time_s": bearing_t,
+        "peak_ball_load_N": ball,
+        "peak_ball_load_time_s": ball_t,
+        "peak_ball_load_ball": which,
         "peak_window_from_s": float(t_min),
         "max_drift": float(np.nanmax(drift)) if np.isfinite(drift).any() else math.nan,
         "num_steps": int(sol.num_steps),
@@ -112,11 +112,12 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     }
 
 
-def _metric_peak(metric, sol, t_min: float, applies: bool = True) -> float:
-    """``metric(sol, t_min)`` [N]; NaN where it does not apply or the run ended before ``t_min``."""
+def _metric_peak(metric, sol, t_min: float, applies: bool = True) -> tuple[float, float]:
+    """(``metric(sol, t_min)`` [N], the time it is attained [s]); NaN where it does not apply or
+    the run ended before ``t_min``."""
     if not applies or float(sol.t_final) <= t_min:
-        return math.nan
-    return float(metric(sol, t_min=t_min))
+        return math.nan, math.nan
+    return float(metric(sol, t_min=t_min)), float(metrics.peak_time(sol, metric, t_min=t_min))
 
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:

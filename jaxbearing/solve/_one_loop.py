@@ -44,16 +44,17 @@ import jax.numpy as jnp
 from .. import _checks
 from ..compile import jit
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, Contacts, SegmentStats
+from ..solution import RESULTS, Contacts
 from ._recording import (
     INTEGRALS,
+    Peaks,
     _accelerations,
     _add,
     _forces,
-    _peaks,
     _step_stats,
     fatigue_size,
-    peak_size,
+    no_peaks,
+    point_peaks,
 )
 from ._segment import EVENT_TIME_TOLERANCE, JUMP, _ITPState, _switch, event_values, itp_start, itp_step
 from ._simulate import (
@@ -68,6 +69,7 @@ from ._simulate import (
     _outputs,
     _raise_on_failure,
     _where_rows,
+    segment_stats,
     checked_start,
     window_stops,
 )
@@ -140,7 +142,7 @@ class _State(NamedTuple):
     step_h: jax.Array  # [s] the step the controller proposed after it
     root: _ITPState  # the root finder's state
     root_steps: jax.Array
-    peaks: jax.Array  # (n_stops, 3 + n), as `simulate`'s carry
+    peaks: Peaks  # (n_stops, ...), as `simulate`'s carry
     integrals: jax.Array  # (n_stops, INTEGRALS)
     fatigue: jax.Array  # (n_stops, 5 + 2 M)
     onsets: tuple  # (time, approach speed, index) each (ONSET_SLOTS,)
@@ -255,8 +257,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         r_step_end = jnp.where(located, s.step_end, t_b)
         stepped = _TSIT5.interpolation_cls(t0=s.t, t1=r_step_end, y0=s.y, y1=s.y, k=r_k)
         stats = _step_stats(model, stepped, s.t, r_end, args, fatigue)
-        row = tuple(_row(x, here) for x in (s.peaks, s.integrals, s.fatigue))
+        row = jax.tree_util.tree_map(lambda x: _row(x, here), (s.peaks, s.integrals, s.fatigue))
         row = jax.tree_util.tree_map(lambda a, b: jnp.where(recorded, a, b), _add(row, stats), row)
+        into = lambda x, r: _where_rows(here, jnp.broadcast_to(r, x.shape), x)  # noqa: E731
 
         # 4. where each member goes on
         t_next = jnp.where(accept, t_b, t)
@@ -298,9 +301,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
             step_h=jnp.where(start, h_next, s.step_h),
             root=root,
             root_steps=jnp.where(start, 0, s.root_steps + s.locating),
-            peaks=jnp.where(here[:, None], row[0], s.peaks),
-            integrals=jnp.where(here[:, None], row[1], s.integrals),
-            fatigue=jnp.where(here[:, None], row[2], s.fatigue),
+            peaks=jax.tree_util.tree_map(into, s.peaks, row[0]),
+            integrals=into(s.integrals, row[1]),
+            fatigue=into(s.fatigue, row[2]),
             onsets=onsets,
             n_onsets=s.n_onsets + onset,
             events=events,
@@ -313,7 +316,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
     final = jax.lax.while_loop(lambda s: ~s.done, body, state)
     t_final = final.t
     t_start, t_end, valid = _intervals(stops, t0, t_final)
-    segments = SegmentStats(t_start, t_end, _where_rows(valid, final.peaks, 0.0), final.integrals, valid)
+    segments = segment_stats(t_start, t_end, final.peaks, final.integrals, valid)
     recorded = model.bearings and fatigue
     fatigue_stats = _fatigue_stats(final.fatigue, t_start, t_end, valid) if recorded else None
     ts = jnp.stack([t0, final.t])
@@ -346,9 +349,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
 
 
 def _row(x, here):
-    """The row of ``x`` (rows, m) where the one-hot ``here`` (rows,) is true: a sum of selects,
-    which a batch evaluates elementwise (a vmapped index would be a gather)."""
-    return jnp.sum(jnp.where(here[:, None], x, 0.0), axis=0)
+    """The row of ``x`` (rows, ...) where the one-hot ``here`` (rows,) is true: a sum of
+    selects, which a batch evaluates elementwise (a vmapped index would be a gather)."""
+    return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
 
 
 def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
@@ -359,8 +362,8 @@ def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
     in_contact = jnp.zeros(n_contacts, bool)
     engaged = model.ball_deflections(t0, model.q0) > 0.0
     q, qd = y0[:n], y0[n:]
-    start_peaks = _peaks(model, q, _forces(model, t0, q, qd, approach, engaged))
-    peaks = jnp.full((stops.shape[0], peak_size(model)), -jnp.inf).at[0].set(start_peaks)
+    start = point_peaks(model, t0, q, _forces(model, t0, q, qd, approach, engaged))
+    peaks = jax.tree_util.tree_map(lambda x, v: x.at[0].set(v), no_peaks(model, stops.shape[:1]), start)
     zero = jnp.zeros((), y0.dtype)
     root = _ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero, zero)
     return _State(

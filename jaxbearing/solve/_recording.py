@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
@@ -18,7 +19,7 @@ import jax.numpy as jnp
 from .._forms import output_forms
 from ..laws import bearing as bearing_law
 from ..multibody.mechanism import Mechanism
-from ..solution import FORCE_SCALE, POWER, RING_POINTS_PER_BALL
+from ..solution import FORCE_SCALE, PEAK_BALL_LOAD, POWER, RING_POINTS_PER_BALL
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
 GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
@@ -53,6 +54,41 @@ def _forces(model, t, q, qd, approach_speeds, engaged):
         out["contact_force"] = model.contacts[0].forces(t, q, qd, approach_speeds[0])[0]
         out["penetration"] = model.contacts[0].gap(q, qd)[0]
     return out
+
+
+class Peaks(NamedTuple):
+    """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 3 + n) (`_peaks`),
+    the ``times`` (..., 3 + n) [s] that attain them, and the ``ball`` (...,) int that carries
+    the largest ball load at its peak."""
+
+    values: jax.Array
+    times: jax.Array
+    ball: jax.Array
+
+
+def no_peaks(model, rows=()) -> Peaks:
+    """`Peaks` of an empty span (``rows`` of them): values -inf, times 0, ball 0."""
+    shape = tuple(rows) + (peak_size(model),)
+    return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), jnp.zeros(tuple(rows), jnp.int32))
+
+
+def _largest_ball(f):
+    """Index of the most loaded ball in ``f`` (0 without a bearing)."""
+    ball = jnp.zeros((), jnp.int32)
+    if "ball_loads" not in f:
+        return ball
+    loads = f["ball_loads"]
+    largest = loads[0]
+    for i in range(1, loads.shape[0]):  # selects, as in `_largest_of`: an argmax cost more here
+        ball = jnp.where(loads[i] > largest, i, ball)
+        largest = jnp.maximum(largest, loads[i])
+    return ball
+
+
+def point_peaks(model, t, q, f) -> Peaks:
+    """`Peaks` of the single point (t, q) with forces ``f``."""
+    values = _peaks(model, q, f)
+    return Peaks(values, jnp.full_like(values, t), _largest_ball(f))
 
 
 def _peaks(model, q, f):
@@ -119,16 +155,26 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue):
     ys = jax.vmap(interpolation.evaluate)(times)
     q, qd = ys[:, :n], ys[:, n:]
     f = jax.vmap(lambda t, q_, qd_: _forces(model, t, q_, qd_, approach, engaged))(times, q, qd)
-    peaks = jax.vmap(lambda q_, f_: _peaks(model, q_, f_))(q, f)
+    peaks = _largest_of(jax.vmap(lambda t, q_, f_: point_peaks(model, t, q_, f_))(times, q, f))
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
     integrands = jax.vmap(_integrands)(times[:3], gauss)
     h = t_b - t_a
     if not (model.bearings and fatigue):
-        return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), jnp.zeros((0,), q.dtype)
+        return peaks, h * _gauss_sum(integrands), jnp.zeros((0,), q.dtype)
     life = jax.vmap(lambda q_, qd_, f_: _fatigue_integrands(model, q_, qd_, f_))(
         q[:3], qd[:3], gauss
     )
-    return jnp.max(peaks, axis=0), h * _gauss_sum(integrands), h * _gauss_sum(life)
+    return peaks, h * _gauss_sum(integrands), h * _gauss_sum(life)
+
+
+def _largest_of(points: Peaks) -> Peaks:
+    """`Peaks` of a step from those of its points (4, ...), in time order: each value's
+    maximum, and the earliest point that attains it (`_add` over the points: selects, which
+    cost a one-loop run less than an argmax and a gather)."""
+    peaks = Peaks(*(x[0] for x in points))
+    for i in range(1, points.values.shape[0]):
+        peaks = _add((peaks,), (Peaks(*(x[i] for x in points)),))[0]
+    return peaks
 
 
 def _gauss_sum(values):
@@ -143,7 +189,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
     """The user's solver, plus the `SegmentStats` and `FatigueStats` integrals of the steps it
     takes.
 
-    State: (inner state, (peaks, integrals, fatigue integrals) over all accepted steps but the
+    State: (inner state, (`Peaks`, integrals, fatigue integrals) over all accepted steps but the
     latest, the latest accepted step (t0, t1, dense_info)). Each step adds its predecessor's
     stats: diffrax keeps the old state when it rejects a step, so only accepted steps count,
     and the latest one is left open, so that `_close` counts it up to the end of the segment,
@@ -183,7 +229,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
             lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
         )
         stats = (
-            jnp.full(peak_size(self.model), -jnp.inf, y0.dtype),
+            no_peaks(self.model),
             jnp.zeros(INTEGRALS, y0.dtype),
             jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
         )
@@ -215,8 +261,16 @@ def _close(model, solver, last, t_end, args, fatigue):
 
 
 def _add(stats, more):
-    """(peaks, integrals, fatigue integrals) of two spans together."""
-    return jnp.maximum(stats[0], more[0]), stats[1] + more[1], stats[2] + more[2]
+    """(`Peaks`, integrals, fatigue integrals) of two spans together, ``stats``' first: a peak
+    keeps its time and ball unless ``more``'s is larger."""
+    (old, *sums), (new, *more_sums) = stats, more
+    later = new.values > old.values
+    peaks = Peaks(
+        jnp.maximum(old.values, new.values),  # NaN wins, as in the forces
+        jnp.where(later, new.times, old.times),
+        jnp.where(later[..., PEAK_BALL_LOAD], new.ball, old.ball),
+    )
+    return (peaks,) + tuple(a + b for a, b in zip(sums, more_sums))
 
 
 def peak_size(model) -> int:

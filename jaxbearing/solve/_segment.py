@@ -18,7 +18,7 @@ import optimistix as optx
 from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
 from ._progress import _Progress
-from ._recording import INTEGRALS, _add, _close, fatigue_size, peak_size
+from ._recording import INTEGRALS, Peaks, _add, _close, fatigue_size, no_peaks
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] root-finding tolerance on event times
@@ -222,7 +222,7 @@ class _Carry(NamedTuple):
     pending: tuple  # the rows of the block that holds time ``written`` (block, ...): written to
     # ``outputs`` when that block is full (`output_rows` reads the last one here)
     written: jax.Array  # output times evaluated so far: the first ``written`` of ``ts``
-    peaks: jax.Array  # (n_stops, 3 + n) `SegmentStats` peaks of each stop interval so far
+    peaks: Peaks  # (n_stops, ...) `SegmentStats` peaks of each stop interval so far
     integrals: jax.Array  # (n_stops, INTEGRALS) `SegmentStats` integrals of each stop interval
     fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals of each stop interval
     done: jax.Array  # reached t1 or failed
@@ -314,7 +314,7 @@ def initial_carry(s: _Setup, y0, initial_step) -> _Carry:
             jnp.zeros((block, n_balls), bool),
         ),
         written=jnp.asarray(0),
-        peaks=jnp.full((s.stops.shape[0], peak_size(model)), -jnp.inf),
+        peaks=no_peaks(model, s.stops.shape[:1]),
         integrals=jnp.zeros((s.stops.shape[0], INTEGRALS)),
         fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model, s.recording.fatigue))),
         done=jnp.asarray(False),
@@ -535,9 +535,10 @@ def segment(s: _Setup, c: _Carry, slot):
     # finished member's idle solve adds nothing. They join those of the stop interval.
     closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
     ours = _add(stats, closing)
-    nothing = (jnp.full_like(ours[0], -jnp.inf), jnp.zeros_like(ours[1]), jnp.zeros_like(ours[2]))
+    nothing = (no_peaks(s.model), jnp.zeros_like(ours[1]), jnp.zeros_like(ours[2]))
     ours = jax.tree_util.tree_map(lambda x, y: jnp.where(c.done, y, x), ours, nothing)
-    interval = _add((c.peaks[c.cell], c.integrals[c.cell], c.fatigue[c.cell]), ours)
+    cell = lambda x: x[c.cell]  # noqa: E731
+    interval = _add(jax.tree_util.tree_map(cell, (c.peaks, c.integrals, c.fatigue)), ours)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = _no_onset(c.t)
     overlap = jnp.zeros((), bool)
@@ -565,7 +566,7 @@ def segment(s: _Setup, c: _Carry, slot):
         outputs=outputs,
         pending=pending,
         written=written,
-        peaks=c.peaks.at[c.cell].set(interval[0]),
+        peaks=jax.tree_util.tree_map(lambda x, v: x.at[c.cell].set(v), c.peaks, interval[0]),
         integrals=c.integrals.at[c.cell].set(interval[1]),
         fatigue=c.fatigue.at[c.cell].set(interval[2]),
         done=finished,

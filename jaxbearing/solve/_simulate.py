@@ -454,9 +454,7 @@ def _simulate(
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
     t_start, t_end, valid = _intervals(setup.stops, t0, t_final)
-    segments = SegmentStats(
-        t_start, t_end, _where_rows(valid, final.peaks, 0.0), final.integrals, valid
-    )
+    segments = segment_stats(t_start, t_end, final.peaks, final.integrals, valid)
     recorded = model.bearings and fatigue
     fatigue = _fatigue_stats(final.fatigue, t_start, t_end, valid) if recorded else None
     return _outputs(
@@ -482,6 +480,20 @@ def _intervals(stops, t0, t_final):
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), t_final)
     t_end = jnp.minimum(stops, t_final)
     return t_start, t_end, t_end > t_start
+
+
+def segment_stats(t_start, t_end, peaks, integrals, valid) -> SegmentStats:
+    """`SegmentStats` from the intervals' `Peaks` and integrals: peaks 0 and their times NaN in
+    the intervals not reached."""
+    return SegmentStats(
+        t_start,
+        t_end,
+        _where_rows(valid, peaks.values, 0.0),
+        integrals,
+        valid,
+        _where_rows(valid, peaks.times, jnp.nan),
+        jnp.where(valid, peaks.ball, 0),
+    )
 
 
 def _fatigue_stats(integrals, t_start, t_end, valid) -> FatigueStats:
