@@ -313,9 +313,9 @@ def test_default_output_times_are_what_the_metrics_need():
     def own(sol):
         return M.peak_ball_load(sol, t_min=0.0)
 
-    assert [_sweep.needs_samples(fn) for fn in (*exact.values(), M.smooth_peak_ball_load, own)] == [
-        False, False, False, True
-    ]
+    when = functools.partial(M.peak_time, metric=M.peak_impact_force)
+    free = (*exact.values(), M.smooth_peak_ball_load, when, M.peak_ball)
+    assert [_sweep.needs_samples(fn) for fn in (*free, own)] == [False] * len(free) + [True]
     assert not any(_sweep.needs_samples(METRICS[name]) for name in ("l10_iso_hours", "l10_lp_mrev"))
     items = (*METRICS.items(), ("own", own))
     times = _sweep.arguments.output_times(items, 0.0, T1, None)

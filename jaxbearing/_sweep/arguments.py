@@ -30,7 +30,9 @@ NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itse
 SOLVES = {"segments": simulate, "one_loop": simulate_one_loop}  # what a member's solve calls
 # jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
 # whatever the output times: recognised as sample-free without the attribute
-_SEGMENT_METRICS = frozenset({*_metrics.STANDARD.values(), *_metrics.SMOOTH.values()})
+_SEGMENT_METRICS = frozenset(
+    {*_metrics.STANDARD.values(), *_metrics.SMOOTH.values(), _metrics.peak_time, _metrics.peak_ball}
+)
 
 
 class Request(NamedTuple):
@@ -164,7 +166,7 @@ def metric_items(metrics, names):
 def needs_samples(fn) -> bool:
     """Whether metric ``fn`` reads the solution's output samples (``sol.ts``, ``sol.ball_loads``,
     ...). Not when the function (inside a `metrics.WithModel` or a `functools.partial`) is one
-    of `metrics.STANDARD` or `metrics.SMOOTH`, or carries the attribute ``sample_free = True``
+    of `metrics.STANDARD` or `metrics.SMOOTH`, `metrics.peak_time` or `metrics.peak_ball`, or carries the attribute ``sample_free = True``
     (`life.metric`'s does; mark your own metrics of ``sol.segments`` or ``sol.fatigue``); every
     other metric does."""
     inner = _unwrapped(fn)
