@@ -323,10 +323,11 @@ def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
 
 def peak_ball(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
     """The ball that carries `peak_ball_load` in the window: its column of
-    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced)."""
+    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced). The
+    loads of every ball at that time are in ``sol.segments.peak_loads``."""
     _require_bearing(sol)
     i, has_value = _where_peak(sol, PEAK_BALL_LOAD, t_min, t_max)
-    return jnp.where(has_value, sol.segments.peak_ball[i], -1)
+    return jnp.where(has_value, jnp.argmax(sol.segments.peak_loads[i]), -1)
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:

@@ -96,8 +96,9 @@ class SegmentStats(eqx.Module):
             earliest recorded point that attains it (so, for a smooth maximum, within the
             spacing of the points, under half a step, of where the interpolant peaks); NaN in
             intervals the solve did not reach.
-        peak_ball: (C,) int, the ball (column of `Solution.ball_loads`, 0 = ball 1) that
-            carries the largest ball load at its peak; 0 without a bearing.
+        peak_loads: (C, N_b) [N], every ball's load at the time of the interval's largest ball
+            load (``peak_times[:, PEAK_BALL_LOAD]``), ball 1 first; (C, 0) without a bearing, 0
+            in intervals the solve did not reach.
     """
 
     t_start: jax.Array
@@ -106,7 +107,7 @@ class SegmentStats(eqx.Module):
     integrals: jax.Array
     valid: jax.Array
     peak_times: jax.Array
-    peak_ball: jax.Array
+    peak_loads: jax.Array
 
 
 class FatigueStats(eqx.Module):

@@ -68,21 +68,21 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
 
 
 def fake_segments(ts, loads, bearing, contact):
-    """`SegmentStats`-like peaks of the samples, their times and the peak ball, over the
+    """`SegmentStats`-like peaks of the samples, their times and the ball loads at the peak, over the
     intervals between the stops that a solve of [ts[0], ts[-1]] has (t0, `metrics.T_MIN` where
     inside, t1)."""
     edges = np.unique(np.clip([ts[0], report.PEAK_FROM, ts[-1]], ts[0], ts[-1]))
-    rows, times, balls = [], [], []
+    rows, times, at_peak = [], [], []
     for a, b in zip(edges[:-1], edges[1:]):
         inside = np.flatnonzero((ts >= a) & (ts <= b))
         largest = loads[inside].max(axis=1)
         series = (largest, bearing[inside], contact[inside])
         rows.append([x.max() for x in series] + [0.0] * 12)
         times.append([ts[inside[np.argmax(x)]] for x in series] + [a] * 12)
-        balls.append(np.argmax(loads[inside[np.argmax(largest)]]))
+        at_peak.append(loads[inside[np.argmax(largest)]])
     return SimpleNamespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
                            valid=np.ones(len(rows), bool), peak_times=np.array(times),
-                           peak_ball=np.array(balls))
+                           peak_loads=np.array(at_peak))
 
 
 def test_series_names_and_values():
@@ -199,7 +199,7 @@ def test_summary_peaks_come_from_the_solution_not_the_samples():
     assert report.summarize(sol)["peak_ball_load_ball"] == 2
     sol.segments.peaks[-1, :3] = [7.0, 6.0, 64.0]  # between samples, after 0.04 s
     sol.segments.peak_times[-1, :3] = [0.0512, 0.0634, 0.0937]
-    sol.segments.peak_ball[-1] = 4
+    sol.segments.peak_loads[-1] = [0.0, 1.0, 2.0, 3.0, 7.0, 2.0, 1.0, 0.0]
     s = report.summarize(sol)
     assert (s["peak_ball_load_N"], s["peak_bearing_force_N"], s["peak_impact_force_N"]) == (7.0, 6.0, 64.0)
     times = (s["peak_ball_load_time_s"], s["peak_bearing_force_time_s"], s["peak_impact_force_time_s"])

@@ -58,37 +58,29 @@ def _forces(model, t, q, qd, approach_speeds, engaged):
 
 class Peaks(NamedTuple):
     """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 3 + n) (`_peaks`),
-    the ``times`` (..., 3 + n) [s] that attain them, and the ``ball`` (...,) int that carries
-    the largest ball load at its peak."""
+    the ``times`` (..., 3 + n) [s] that attain them, and the ball ``loads`` (..., N_b) [N] at
+    the time of the largest ball load."""
 
     values: jax.Array
     times: jax.Array
-    ball: jax.Array
+    loads: jax.Array
+
+
+def _n_balls(model) -> int:
+    return model.bearings[0].bearing.n_balls if model.bearings else 0
 
 
 def no_peaks(model, rows=()) -> Peaks:
-    """`Peaks` of an empty span (``rows`` of them): values -inf, times 0, ball 0."""
+    """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0."""
     shape = tuple(rows) + (peak_size(model),)
-    return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), jnp.zeros(tuple(rows), jnp.int32))
-
-
-def _largest_ball(f):
-    """Index of the most loaded ball in ``f`` (0 without a bearing)."""
-    ball = jnp.zeros((), jnp.int32)
-    if "ball_loads" not in f:
-        return ball
-    loads = f["ball_loads"]
-    largest = loads[0]
-    for i in range(1, loads.shape[0]):  # selects, as in `_largest_of`: an argmax cost more here
-        ball = jnp.where(loads[i] > largest, i, ball)
-        largest = jnp.maximum(largest, loads[i])
-    return ball
+    loads = jnp.zeros(tuple(rows) + (_n_balls(model),))
+    return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), loads)
 
 
 def point_peaks(model, t, q, f) -> Peaks:
     """`Peaks` of the single point (t, q) with forces ``f``."""
     values = _peaks(model, q, f)
-    return Peaks(values, jnp.full_like(values, t), _largest_ball(f))
+    return Peaks(values, jnp.full_like(values, t), f.get("ball_loads", jnp.zeros(0)))
 
 
 def _peaks(model, q, f):
@@ -262,13 +254,13 @@ def _close(model, solver, last, t_end, args, fatigue):
 
 def _add(stats, more):
     """(`Peaks`, integrals, fatigue integrals) of two spans together, ``stats``' first: a peak
-    keeps its time and ball unless ``more``'s is larger."""
+    keeps its time (and the largest ball load its ball loads) unless ``more``'s is larger."""
     (old, *sums), (new, *more_sums) = stats, more
     later = new.values > old.values
     peaks = Peaks(
         jnp.maximum(old.values, new.values),  # NaN wins, as in the forces
         jnp.where(later, new.times, old.times),
-        jnp.where(later[..., PEAK_BALL_LOAD], new.ball, old.ball),
+        jnp.where(later[..., PEAK_BALL_LOAD, None], new.loads, old.loads),
     )
     return (peaks,) + tuple(a + b for a, b in zip(sums, more_sums))
 

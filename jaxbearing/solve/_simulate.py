@@ -492,7 +492,7 @@ def segment_stats(t_start, t_end, peaks, integrals, valid) -> SegmentStats:
         integrals,
         valid,
         _where_rows(valid, peaks.times, jnp.nan),
-        jnp.where(valid, peaks.ball, 0),
+        _where_rows(valid, peaks.loads, 0.0),
     )
 
 
