@@ -68,9 +68,9 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
 
 
 def fake_segments(ts, loads, bearing, contact):
-    """`SegmentStats`-like peaks of the samples, their times and the ball loads at the peak, over the
-    intervals between the stops that a solve of [ts[0], ts[-1]] has (t0, `metrics.T_MIN` where
-    inside, t1)."""
+    """`SegmentStats`-like peaks of the samples, their times and the ball loads at the peak,
+    over the intervals between the stops that a solve of [ts[0], ts[-1]] has (t0,
+    `metrics.T_MIN` where inside, t1)."""
     edges = np.unique(np.clip([ts[0], report.PEAK_FROM, ts[-1]], ts[0], ts[-1]))
     rows, times, at_peak = [], [], []
     for a, b in zip(edges[:-1], edges[1:]):
@@ -202,8 +202,8 @@ def test_summary_peaks_come_from_the_solution_not_the_samples():
     sol.segments.peak_loads[-1] = [0.0, 1.0, 2.0, 3.0, 7.0, 2.0, 1.0, 0.0]
     s = report.summarize(sol)
     assert (s["peak_ball_load_N"], s["peak_bearing_force_N"], s["peak_impact_force_N"]) == (7.0, 6.0, 64.0)
-    times = (s["peak_ball_load_time_s"], s["peak_bearing_force_time_s"], s["peak_impact_force_time_s"])
-    assert times == (0.0512, 0.0634, 0.0937) and s["peak_ball_load_ball"] == 5
+    times = [s[f"peak_{name}_time_s"] for name in ("ball_load", "bearing_force", "impact_force")]
+    assert times == [0.0512, 0.0634, 0.0937] and s["peak_ball_load_ball"] == 5
     early = report.summarize(fake_solution(np.linspace(0.0, 0.03, 4)))
     assert math.isnan(early["peak_bearing_force_N"]) and math.isnan(early["peak_ball_load_N"])
     assert math.isnan(early["peak_ball_load_time_s"]) and early["peak_ball_load_ball"] is None

@@ -166,9 +166,9 @@ def metric_items(metrics, names):
 def needs_samples(fn) -> bool:
     """Whether metric ``fn`` reads the solution's output samples (``sol.ts``, ``sol.ball_loads``,
     ...). Not when the function (inside a `metrics.WithModel` or a `functools.partial`) is one
-    of `metrics.STANDARD` or `metrics.SMOOTH`, `metrics.peak_time` or `metrics.peak_ball`, or carries the attribute ``sample_free = True``
-    (`life.metric`'s does; mark your own metrics of ``sol.segments`` or ``sol.fatigue``); every
-    other metric does."""
+    of `metrics.STANDARD` or `metrics.SMOOTH`, `metrics.peak_time` or `metrics.peak_ball`, or
+    carries the attribute ``sample_free = True`` (`life.metric`'s does; mark your own metrics of
+    ``sol.segments`` or ``sol.fatigue``); every other metric does."""
     inner = _unwrapped(fn)
     return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
 
