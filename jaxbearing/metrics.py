@@ -18,7 +18,8 @@ differentiation transforms:
   of the point that attains the maximum, which jumps when another point takes over; fine for
   sensitivities at one design point, poor for optimisation;
 - `peak_time` and `peak_ball` say when an exact peak is attained and which ball carries the
-  peak ball load: the earliest recorded point that attains it (no derivative);
+  peak ball load, `loads_at_peak` every ball's load then: the earliest recorded point that
+  attains the peak (no derivative of the time);
 - the smooth versions (``smooth_*``) replace the maximum by the power mean
   (1/T integral x^p dt)^(1/p) over the window of duration T, which lies below the maximum,
   approaches it as p grows, and is differentiable everywhere: use them as objectives for
@@ -321,13 +322,20 @@ def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
     return jnp.where(has_value, time, jnp.nan)
 
 
-def peak_ball(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """The ball that carries `peak_ball_load` in the window: its column of
-    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced). The
-    loads of every ball at that time are in ``sol.segments.peak_loads``."""
+def loads_at_peak(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """Every ball's load [N] at the time of `peak_ball_load` in the window (its `peak_time`),
+    (N_b,), ball 1 first: the load distribution at the worst instant (`SegmentStats.peak_loads`);
+    NaN for a window without value (traced). A vector: in a sweep, take one ball's entry."""
     _require_bearing(sol)
     i, has_value = _where_peak(sol, PEAK_BALL_LOAD, t_min, t_max)
-    return jnp.where(has_value, jnp.argmax(sol.segments.peak_loads[i]), -1)
+    return jnp.where(has_value, sol.segments.peak_loads[i], jnp.nan)
+
+
+def peak_ball(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+    """The ball that carries `peak_ball_load` in the window: its column of
+    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced)."""
+    loads = loads_at_peak(sol, t_min, t_max)
+    return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 
 def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:

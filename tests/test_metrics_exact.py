@@ -79,7 +79,8 @@ def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
     """`peak_time` and `peak_ball` are the same whatever the output times; the solution takes
     the peak value at `peak_time`: samples 1 µs apart, interpolated linearly there, agree within
     2e-5 (the interpolation's error near a maximum, f'' (1 µs)^2 / 8: measured up to 7e-6 at
-    the sharp first peak); the ball is the one the largest sample names."""
+    the sharp first peak), and so do every ball's loads (`loads_at_peak`); the ball is the one
+    the largest sample names."""
     ts = np.asarray(dense.ts)
     after = ts >= t_min
     loads = np.where(after[:, None], np.asarray(dense.ball_loads), -np.inf)
@@ -92,6 +93,13 @@ def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
     ball = int(M.peak_ball(dense, t_min=t_min))
     assert ball == int(M.peak_ball(coarse, t_min=t_min))
     assert ball == np.argmax(loads[np.argmax(loads.max(axis=1))])
+    # every ball's load at that time: the peak on its ball, the samples' loads there
+    at_peak = np.asarray(M.loads_at_peak(dense, t_min=t_min))
+    value = float(M.peak_ball_load(dense, t_min=t_min))
+    assert at_peak[ball] == value == at_peak.max()
+    time = float(M.peak_time(dense, M.peak_ball_load, t_min=t_min))
+    there = [np.interp(time, ts, loads[:, k]) for k in range(loads.shape[1])]
+    np.testing.assert_allclose(at_peak, there, rtol=0, atol=2e-5 * value)
     with pytest.raises(ValueError, match="exact peaks"):
         M.peak_time(dense, M.rms_bearing_force)
 
