@@ -67,6 +67,7 @@ class Peaks(NamedTuple):
 
 
 def _n_balls(model) -> int:
+    """Balls of the model's first bearing joint (0 without one)."""
     return model.bearings[0].bearing.n_balls if model.bearings else 0
 
 
