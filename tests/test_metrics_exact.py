@@ -146,7 +146,8 @@ def test_smooth_metrics_have_exact_derivatives():
 def test_metrics_do_not_depend_on_the_output_times():
     """The paper's case with impact over 0.2 s: every metric the same at 21 ... 200 001 output
     times (the sample maxima of 2001 outputs were up to 30 % low), the peak impact force within
-    1 % of the maximum over 200 001 samples and its time within 1 µs of that sample's."""
+    1 % of the maximum over 200 001 samples and its time within 1 µs of that sample's; the
+    target's displacement at its `peak_time` equal to its peak."""
     model, t1 = jb.cases.xu2014(impact=True), 0.2
     values, times = {}, set()
     for n in (21, 201, 2001, 200_001):
@@ -163,3 +164,10 @@ def test_metrics_do_not_depend_on_the_output_times():
     assert values[200_001]["peak_impact_force"] >= sampled * (1 - 1e-3)
     at = np.asarray(sol.ts)[np.argmax(np.where(after, np.asarray(sol.contact_force), -np.inf))]
     assert times.pop() == pytest.approx(at, abs=1e-6)
+    # the target's displacement takes its peak at its peak_time (samples interpolated there, as
+    # in test_peak_times_and_ball_come_from_the_solution)
+    target = np.abs(np.asarray(sol.q[:, sol.target]) - float(sol.q[0, sol.target]))
+    when = float(M.peak_time(sol, M.max_target_displacement))
+    assert np.interp(when, np.asarray(sol.ts), target) == pytest.approx(
+        values[200_001]["max_target_displacement"], rel=2e-5
+    )
