@@ -13,10 +13,12 @@ Python, makes the metric NaN.
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
 differentiation transforms:
 
-- the exact peaks (``peak_*``, ``max_*``) are maxima over the points the steps record (each
-  step's end and 3 Gauss–Legendre points): differentiable almost everywhere, with the derivative
-  of the point that attains the maximum, which jumps when another point takes over; fine for
-  sensitivities at one design point, poor for optimisation;
+- the exact peaks (``peak_*``, ``max_*``) are maxima of each step's interpolant (its end, 3
+  Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of a
+  parabola through them, the interpolant's maximum to third order; `SegmentStats`):
+  differentiable almost everywhere, with the derivative of the point that attains the maximum,
+  which jumps when another point takes over; fine for sensitivities at one design point, poor
+  for optimisation;
 - `peak_time` and `peak_ball` say when an exact peak is attained and which ball carries the
   peak ball load, `loads_at_peak` every ball's load then: the earliest recorded point that
   attains the peak (no derivative of the time);
@@ -236,15 +238,15 @@ def _require_bearing(sol: Solution):
 
 
 def peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest load on any ball [N] in the window, over each solver step's end and Gauss points
-    (exact there; `SegmentStats`)."""
+    """Largest load on any ball [N] in the window, the maximum of each solver step's
+    interpolant (`SegmentStats`)."""
     _require_bearing(sol)
     return _peak(sol, PEAK_BALL_LOAD, t_min, t_max)
 
 
 def peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window, over each
-    solver step's end and Gauss points (exact there; `SegmentStats`)."""
+    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window, the maximum
+    of each solver step's interpolant (`SegmentStats`)."""
     _require_bearing(sol)
     return _peak(sol, PEAK_BEARING_FORCE, t_min, t_max)
 
@@ -258,14 +260,14 @@ def rms_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
 
 
 def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
-    """Largest normal impact force [N] in the window, over each solver step's end and Gauss
-    points (exact there; `SegmentStats`), so independent of the output times."""
+    """Largest normal impact force [N] in the window, the maximum of each solver step's
+    interpolant (`SegmentStats`), so independent of the output times."""
     return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
 
 
 def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=None) -> jax.Array:
-    """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, over each solver
-    step's end and Gauss points (exact there; `SegmentStats`). Default coordinate: the impact
+    """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, the maximum of
+    each solver step's interpolant (`SegmentStats`). Default coordinate: the impact
     target's x (`Solution.target`; in `cases.xu2014` the target, body 3); a model without
     impact contact has no target, and the value is 0 (nothing is struck), as
     `peak_impact_force`'s."""
@@ -314,7 +316,7 @@ def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
     """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
     `peak_impact_force`, or `max_target_displacement` of the target) is attained in the window:
     the earliest recorded point that attains it (`SegmentStats.peak_times`), so independent of
-    the output times. No derivative: the point that attains a maximum moves in jumps. In a
+    the output times. No derivative: the point that attains a maximum jumps between steps. In a
     sweep, pass e.g. ``functools.partial(peak_time, metric=peak_impact_force)``."""
     column = _peak_column(sol, metric)
     i, has_value = _where_peak(sol, column, t_min, t_max)

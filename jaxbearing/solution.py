@@ -74,10 +74,11 @@ class SegmentStats(eqx.Module):
 
     Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
     Gauss–Legendre quadrature over the step; the last step of a segment that ends at an event
-    counts only up to the event. Peaks are therefore the maxima over those points (and each
-    segment's start): exact there, and low by at most the interpolant's rise between points a
-    quarter of a step apart. Integrals are exact for integrands that are polynomials of degree
-    <= 5 over each step.
+    counts only up to the event. Peaks are maxima of the interpolant: where a step may rise
+    above the interval's peak so far between those 4 points, each value is also taken at the
+    vertex of the parabola through the 3 points around its largest, which is the step's maximum
+    to the parabola's third-order error. Integrals are exact for integrands that are
+    polynomials of degree <= 5 over each step.
 
     Fields (C = number of stops; one entry per interval, however many segments it took, so the
     size does not grow with the events or ``max_segments``):
@@ -93,9 +94,8 @@ class SegmentStats(eqx.Module):
             ``INT_*``.
         valid: (C,) bool, True where the interval holds part of the solved span.
         peak_times: (C, 3 + n_coordinates) [s], where each of ``peaks`` is attained: the
-            earliest recorded point that attains it (so, for a smooth maximum, within the
-            spacing of the points, under half a step, of where the interpolant peaks); NaN in
-            intervals the solve did not reach.
+            earliest recorded point (step point or vertex) that attains it; NaN in intervals
+            the solve did not reach.
         peak_loads: (C, N_b) [N], every ball's load at the time of the interval's largest ball
             load (``peak_times[:, PEAK_BALL_LOAD]``), ball 1 first; (C, 0) without a bearing, 0
             in intervals the solve did not reach.

@@ -104,6 +104,60 @@ def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
         M.peak_time(dense, M.rms_bearing_force)
 
 
+def test_peaks_lie_between_the_recorded_points(dense):
+    """A peak is the interpolant's maximum, also where it falls between the 4 points a step
+    records: on the smooth stretch t >= 0.01 s, with long steps, the largest of those points
+    lay 7.0e-4 (ball load) and 2.6e-4 (|F|) below the largest of the 1 µs samples, 7 µs and 4 µs
+    from it. The peak is at least the largest sample (the interpolant at the parabola's vertex
+    is the maximum to its third-order error; measured 3e-6 and 6e-7 above), and within 2e-5
+    of it and 1 µs in time (between samples 1 µs apart the maximum rises by up to
+    f'' (0.5 µs)^2 / 2 above the nearest)."""
+    ts = np.asarray(dense.ts)
+    after = ts >= 0.01
+    loads = np.where(after, np.asarray(dense.ball_loads).max(axis=1), -np.inf)
+    bearing = np.where(after, np.linalg.norm(np.asarray(dense.bearing_force), axis=1), -np.inf)
+    for peak, sampled in ((M.peak_ball_load, loads), (M.peak_bearing_force, bearing)):
+        value = float(peak(dense, t_min=0.01))
+        assert sampled.max() * (1.0 - 1e-7) <= value <= sampled.max() * (1.0 + 2e-5), peak.__name__
+        time = float(M.peak_time(dense, peak, t_min=0.01))
+        assert abs(time - ts[np.argmax(sampled)]) <= 1e-6, peak.__name__
+
+
+@pytest.mark.parametrize("solver", [diffrax.Tsit5(), diffrax.Dopri5(), jb.kvaerno5()])
+def test_each_coordinate_of_an_interpolant_alone(solver):
+    """`_recording._coordinates_at` evaluates each coordinate's interpolant by itself, cut from
+    the step's dense information: it equals that coordinate of the whole state's interpolant."""
+    from jaxbearing.solve._recording import _coordinates_at
+
+    n = 3
+    matrix = jnp.asarray(np.random.default_rng(0).normal(size=(2 * n, 2 * n)))
+    term = diffrax.ODETerm(lambda t, y, args: jnp.sin(matrix @ y) + t)
+    y0 = jnp.linspace(0.1, 0.6, 2 * n)
+    t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
+    state = solver.init(term, t0, t1, y0, None)
+    _, _, dense, _, _ = solver.step(term, t0, t1, y0, None, state, False)
+    interpolation = solver.interpolation_cls(t0=t0, t1=t1, **dense)
+    times = jnp.asarray([0.013, 0.05, 0.097])
+    whole = jnp.stack([interpolation.evaluate(t)[j] for j, t in enumerate(times)])
+    np.testing.assert_allclose(_coordinates_at(interpolation, n, times), whole, rtol=1e-14)
+
+
+def test_vertex_of_the_recorded_points():
+    """`_recording._vertices` on a parabola: its vertex and its rise above the largest point,
+    wherever the vertex lies in the step; nothing for a monotone or convex column."""
+    from jaxbearing.solve._recording import _NODES, _vertices
+
+    s = jnp.asarray(_NODES)
+    tops = jnp.asarray([0.05, 0.3, 0.7, 0.95])
+    columns = [1.0 - (s - top) ** 2 for top in tops] + [s, (s - 0.5) ** 2]
+    vertex, rise = _vertices(jnp.stack(columns, axis=1))
+    largest = jnp.stack(columns, axis=1).max(axis=0)
+    np.testing.assert_allclose(vertex[:4], tops, rtol=1e-12)
+    np.testing.assert_allclose(rise[:4], 1.0 - largest[:4], rtol=1e-12)
+    assert vertex[4] == s[2] and rise[4] == 0.0  # monotone: the end is the step's largest
+    assert rise[5] == 0.0
+
+
 def test_window_edges_must_be_stops(model, coarse):
     with pytest.raises(ValueError, match="window_edges"):
         M.rms_bearing_force(coarse, t_min=EDGE)

@@ -256,8 +256,8 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         r_k = jnp.where(located, s.step_k, ks)
         r_step_end = jnp.where(located, s.step_end, t_b)
         stepped = _TSIT5.interpolation_cls(t0=s.t, t1=r_step_end, y0=s.y, y1=s.y, k=r_k)
-        stats = _step_stats(model, stepped, s.t, r_end, args, fatigue)
         row = jax.tree_util.tree_map(lambda x: _row(x, here), (s.peaks, s.integrals, s.fatigue))
+        stats = _step_stats(model, stepped, s.t, r_end, args, fatigue, row[0])
         row = jax.tree_util.tree_map(lambda a, b: jnp.where(recorded, a, b), _add(row, stats), row)
         into = lambda x, r: _where_rows(here, jnp.broadcast_to(r, x.shape), x)  # noqa: E731
 

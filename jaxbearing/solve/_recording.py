@@ -2,7 +2,8 @@
 integrals of every accepted step.
 
 Each step contributes the forces at its end and at its 3 Gauss–Legendre points, and their
-Gauss–Legendre quadrature over the step (`jaxbearing.solution`).
+Gauss–Legendre quadrature over the step; its peaks also at the vertices of parabolas through
+those points, where the step may rise above the peaks so far (`jaxbearing.solution`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
@@ -45,15 +47,27 @@ def _forces(model, t, q, qd, approach_speeds, engaged):
     """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
     and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
     ``penetration`` [m] of the first impact contact (each only where the model has one)."""
-    out = {}
-    if model.bearings:
-        first = model.engaged_by_bearing(engaged)[0]
-        loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
-        out.update(ball_loads=loads, cage=cage, bearing_force=bearing_law.resultant(loads, cage))
-    if model.contacts:
-        out["contact_force"] = model.contacts[0].forces(t, q, qd, approach_speeds[0])[0]
-        out["penetration"] = model.contacts[0].gap(q, qd)[0]
-    return out
+    bearing = _bearing_forces(model, t, q, qd, engaged)
+    return bearing | _contact_forces(model, t, q, qd, approach_speeds)
+
+
+def _bearing_forces(model, t, q, qd, engaged):
+    """The first bearing joint's part of `_forces` (empty without one)."""
+    if not model.bearings:
+        return {}
+    first = model.engaged_by_bearing(engaged)[0]
+    loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
+    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
+
+
+def _contact_forces(model, t, q, qd, approach_speeds):
+    """The first impact contact's part of `_forces` (empty without one)."""
+    if not model.contacts:
+        return {}
+    return {
+        "contact_force": model.contacts[0].forces(t, q, qd, approach_speeds[0])[0],
+        "penetration": model.contacts[0].gap(q, qd)[0],
+    }
 
 
 class Peaks(NamedTuple):
@@ -138,17 +152,35 @@ def _fatigue_integrands(model, q, qd, f):
     return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
 
 
-def _step_stats(model, interpolation, t_a, t_b, args, fatigue):
+def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     """Peaks and integrals over [t_a, t_b] of one step's interpolant: peaks at t_b and at the 3
-    Gauss–Legendre points, the Gauss–Legendre quadrature of the `SegmentStats` and
-    `FatigueStats` integrands."""
+    Gauss–Legendre points, and, where the step may rise above ``running`` (`Peaks` so far), at
+    each column's `_vertices`; the Gauss–Legendre quadrature of the `SegmentStats` and
+    `FatigueStats` integrands. Whether to evaluate at the vertices is decided once for a whole
+    vmapped batch (`eqxi.unvmap_any`), so that a batch branches rather than evaluating both
+    sides of a select."""
     approach, _, engaged = args
     n = model.n_coordinates
     times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
     ys = jax.vmap(interpolation.evaluate)(times)
     q, qd = ys[:, :n], ys[:, n:]
     f = jax.vmap(lambda t, q_, qd_: _forces(model, t, q_, qd_, approach, engaged))(times, q, qd)
-    peaks = _largest_of(jax.vmap(lambda t, q_, f_: point_peaks(model, t, q_, f_))(times, q, f))
+    points = jax.vmap(lambda t, q_, f_: point_peaks(model, t, q_, f_))(times, q, f)
+    peaks = _largest_of(points)
+    # between the points: the interpolant at the vertex of a parabola through them, for the
+    # columns whose parabola rises there, in a step that may rise above the span's peaks so far
+    # (``running``; by twice the parabola's rise). Columns without rise are left as they are,
+    # so that a batch member's peaks do not depend on whether another member branched.
+    vertex, rise = _vertices(points.values)
+    at = t_a + (t_b - t_a) * vertex
+
+    def refined():
+        top = _vertex_peaks(model, interpolation, at, approach, engaged)
+        top = top._replace(values=jnp.where(rise > 0.0, top.values, -jnp.inf))
+        return _add((peaks,), (top,))[0]
+
+    may_rise = (rise > 0.0) & (peaks.values + 2.0 * rise > running.values)
+    peaks = jax.lax.cond(eqxi.unvmap_any(jnp.any(may_rise)), refined, lambda: peaks)
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
     integrands = jax.vmap(_integrands)(times[:3], gauss)
     h = t_b - t_a
@@ -158,6 +190,63 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue):
         q[:3], qd[:3], gauss
     )
     return peaks, h * _gauss_sum(integrands), h * _gauss_sum(life)
+
+
+_NODES = GAUSS_NODES + (1.0,)  # the fractions of a step at which `_step_stats` records peaks
+
+
+def _vertices(values):
+    """For each column of ``values`` (4, C), recorded at the `_NODES` of a step: the vertex
+    (C,) [fraction of the step] of the parabola through the 3 consecutive points around the
+    largest (the first 3 or the last 3), clamped to the step, and the parabola's rise (C,) there
+    above the largest point; where the parabola has no maximum, its middle point and 0."""
+    v = values
+    s = jnp.asarray(_NODES, v.dtype)
+    first = jnp.maximum(v[0], v[1]) >= jnp.maximum(v[2], v[3])
+    pick = lambda a, b: jnp.where(first, a, b)  # noqa: E731
+    x0, x1, x2 = pick(s[0], s[1]), pick(s[1], s[2]), pick(s[2], s[3])
+    y0, y1, y2 = pick(v[0], v[1]), pick(v[1], v[2]), pick(v[2], v[3])
+    d0 = (y1 - y0) / (x1 - x0)
+    curvature = ((y2 - y1) / (x2 - x1) - d0) / (x2 - x0)  # the parabola's x^2 coefficient
+    has_max = curvature < 0.0
+    vertex = 0.5 * (x0 + x1) - d0 / (2.0 * jnp.where(has_max, curvature, -1.0))
+    vertex = jnp.where(has_max, jnp.clip(vertex, pick(0.0, s[1]), pick(s[2], 1.0)), x1)
+    top = y0 + (vertex - x0) * (d0 + curvature * (vertex - x1))
+    return vertex, jnp.where(has_max, jnp.maximum(top - jnp.max(v, axis=0), 0.0), 0.0)
+
+
+def _vertex_peaks(model, interpolation, times, approach, engaged):
+    """`Peaks` of the interpolant at one time [s] per column, ``times`` (3 + n,): the largest
+    ball load, |F| and the impact force at the first 3, each |q_j - q0_j| at its own."""
+    n = model.n_coordinates
+    ys = jax.vmap(interpolation.evaluate)(times[:3])
+    q, qd = ys[:, :n], ys[:, n:]
+    largest = magnitude = contact = jnp.zeros((), ys.dtype)
+    loads = jnp.zeros(_n_balls(model), ys.dtype)
+    if model.bearings:
+        f = jax.vmap(lambda t, q_, qd_: _bearing_forces(model, t, q_, qd_, engaged))(
+            times[:2], q[:2], qd[:2]
+        )
+        loads = f["ball_loads"][0]
+        largest = jnp.max(loads)
+        magnitude = _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))
+    if model.contacts:
+        contact = _contact_forces(model, times[2], q[2], qd[2], approach)["contact_force"]
+    displacements = jnp.abs(_coordinates_at(interpolation, n, times[3:]) - model.q0)
+    values = jnp.concatenate([jnp.stack([largest, magnitude, contact]), displacements])
+    return Peaks(values, times, loads)
+
+
+def _coordinates_at(interpolation, n, times):
+    """q_j of the interpolant at times[j] [s] (n,): each coordinate's interpolant alone, cut
+    from ``interpolation``'s state-sized arrays (diffrax's interpolations treat each component
+    of the state by itself), so that it costs n scalar evaluations, not n of the whole state."""
+    state_sized = lambda x: jnp.ndim(x) > 0 and x.shape[-1] == 2 * n  # noqa: E731
+    cut = jax.tree_util.tree_map(
+        lambda x: jnp.moveaxis(x[..., :n], -1, 0) if state_sized(x) else x, interpolation
+    )
+    axes = jax.tree_util.tree_map(lambda x: 0 if state_sized(x) else None, interpolation)
+    return jax.vmap(lambda one, t: one.evaluate(t), in_axes=(axes, 0))(cut, times)
 
 
 def _largest_of(points: Peaks) -> Peaks:
@@ -188,12 +277,15 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
     and the latest one is left open, so that `_close` counts it up to the end of the segment,
     which lies before its t1 when the segment ends at an event. The state starts with a
     placeholder step of length zero at y0 (values y0, slopes zero), which counts the segment's
-    initial state.
+    initial state. Its peaks start from ``start``, the peaks so far of the span the segment
+    continues (none by default), so that a step is refined between its points (`_step_stats`)
+    only where it may rise above them.
     """
 
     solver: diffrax.AbstractSolver
     model: Mechanism
     fatigue: bool = eqx.field(static=True, default=True)  # record the `FatigueStats` integrals
+    start: Peaks | None = None
 
     @property
     def term_structure(self):
@@ -222,7 +314,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
             lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
         )
         stats = (
-            no_peaks(self.model),
+            no_peaks(self.model) if self.start is None else self.start,
             jnp.zeros(INTEGRALS, y0.dtype),
             jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
         )
@@ -234,7 +326,8 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
         y1, error, dense, inner, result = self.solver.step(
             terms, t0, t1, y0, args, inner, made_jump
         )
-        stats = _add(stats, _close(self.model, self.solver, last, last[1], args, self.fatigue))
+        closed = _close(self.model, self.solver, last, last[1], args, self.fatigue, stats[0])
+        stats = _add(stats, closed)
         t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
         return y1, error, dense, (inner, stats, (t0, t1, dense)), result
 
@@ -243,14 +336,15 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
 
 
 @eqx.filter_jit
-def _close(model, solver, last, t_end, args, fatigue):
-    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end]. A jit of its own
+def _close(model, solver, last, t_end, args, fatigue, running):
+    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end], whose span's peaks so
+    far are ``running`` (`_step_stats`). A jit of its own
     inside the solve's: diffrax traces a step several times (for the shapes of its state, then
     in its loop) and the segment closes its last step once more, and JAX traces this once for
     all of them (the compiled program is the same)."""
     t_a, t_b, dense = last
     interpolation = solver.interpolation_cls(t0=t_a, t1=t_b, **dense)
-    return _step_stats(model, interpolation, t_a, t_end, args, fatigue)
+    return _step_stats(model, interpolation, t_a, t_end, args, fatigue, running)
 
 
 def _add(stats, more):

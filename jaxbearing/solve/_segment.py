@@ -345,9 +345,11 @@ def _solve(s: _Setup, c: _Carry, t_stop, args):
     fresh = s.controller.init(s.term, c.t, t_stop, c.y, dt0, args, s.recording.func, None)[1]
     state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
     dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
+    # the peaks start from the stop interval's so far: steps are refined only above them
+    start = jax.tree_util.tree_map(lambda x: x[c.cell], c.peaks)
     return diffrax.diffeqsolve(
         s.term,
-        s.recording,
+        eqx.tree_at(lambda r: r.start, s.recording, start, is_leaf=lambda x: x is None),
         c.t,
         t_stop,
         dt0,
@@ -533,7 +535,7 @@ def segment(s: _Setup, c: _Carry, slot):
     hit = (sol.result == diffrax.RESULTS.event_occurred) & ~c.done
     # stats of the segment: its accepted steps, the last one only up to t_end (an event); a
     # finished member's idle solve adds nothing. They join those of the stop interval.
-    closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue)
+    closing = _close(s.model, s.solver, last, t_end, args, s.recording.fatigue, stats[0])
     ours = _add(stats, closing)
     nothing = (no_peaks(s.model), jnp.zeros_like(ours[1]), jnp.zeros_like(ours[2]))
     ours = jax.tree_util.tree_map(lambda x, y: jnp.where(c.done, y, x), ours, nothing)
