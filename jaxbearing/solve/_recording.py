@@ -169,18 +169,25 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     peaks = _largest_of(points)
     # between the points: the interpolant at the vertex of a parabola through them, for the
     # columns whose parabola rises there, in a step that may rise above the span's peaks so far
-    # (``running``; by twice the parabola's rise). Columns without rise are left as they are,
-    # so that a batch member's peaks do not depend on whether another member branched.
+    # (``running``; by twice the parabola's rise): the bearing's columns and the others apart.
+    # Columns without rise are left as they are, so that a batch member's peaks do not depend
+    # on whether another member branched.
     vertex, rise = _vertices(points.values)
     at = t_a + (t_b - t_a) * vertex
-
-    def refined():
-        top = _vertex_peaks(model, interpolation, at, approach, engaged)
-        top = top._replace(values=jnp.where(rise > 0.0, top.values, -jnp.inf))
-        return _add((peaks,), (top,))[0]
-
     may_rise = (rise > 0.0) & (peaks.values + 2.0 * rise > running.values)
-    peaks = jax.lax.cond(eqxi.unvmap_any(jnp.any(may_rise)), refined, lambda: peaks)
+    balls = _n_balls(model)
+    bearing, loads = jax.lax.cond(
+        eqxi.unvmap_any(jnp.any(may_rise[:2])),
+        lambda: _bearing_vertex(model, interpolation, at[:2], engaged),
+        lambda: (jnp.full(2, -jnp.inf, at.dtype), jnp.zeros(balls, at.dtype)),
+    )
+    others = jax.lax.cond(
+        eqxi.unvmap_any(jnp.any(may_rise[2:])),
+        lambda: _other_vertex(model, interpolation, at[2:], approach),
+        lambda: jnp.full(at.shape[0] - 2, -jnp.inf, at.dtype),
+    )
+    top = jnp.where(rise > 0.0, jnp.concatenate([bearing, others]), -jnp.inf)
+    peaks = _add((peaks,), (Peaks(top, at, loads),))[0]
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
     integrands = jax.vmap(_integrands)(times[:3], gauss)
     h = t_b - t_a
@@ -215,26 +222,29 @@ def _vertices(values):
     return vertex, jnp.where(has_max, jnp.maximum(top - jnp.max(v, axis=0), 0.0), 0.0)
 
 
-def _vertex_peaks(model, interpolation, times, approach, engaged):
-    """`Peaks` of the interpolant at one time [s] per column, ``times`` (3 + n,): the largest
-    ball load, |F| and the impact force at the first 3, each |q_j - q0_j| at its own."""
+def _bearing_vertex(model, interpolation, times, engaged):
+    """The largest ball load and |F| [N] (2,) of the interpolant at ``times`` (2,) [s], one
+    each, and every ball's load (N_b,) [N] at the first; zeros without a bearing."""
+    if not model.bearings:
+        return jnp.zeros(2, times.dtype), jnp.zeros(0, times.dtype)
     n = model.n_coordinates
-    ys = jax.vmap(interpolation.evaluate)(times[:3])
-    q, qd = ys[:, :n], ys[:, n:]
-    largest = magnitude = contact = jnp.zeros((), ys.dtype)
-    loads = jnp.zeros(_n_balls(model), ys.dtype)
-    if model.bearings:
-        f = jax.vmap(lambda t, q_, qd_: _bearing_forces(model, t, q_, qd_, engaged))(
-            times[:2], q[:2], qd[:2]
-        )
-        loads = f["ball_loads"][0]
-        largest = jnp.max(loads)
-        magnitude = _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))
+    ys = jax.vmap(interpolation.evaluate)(times)
+    f = jax.vmap(lambda t, y: _bearing_forces(model, t, y[:n], y[n:], engaged))(times, ys)
+    loads = f["ball_loads"][0]
+    magnitude = _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))
+    return jnp.stack([jnp.max(loads), magnitude]), loads
+
+
+def _other_vertex(model, interpolation, times, approach):
+    """The impact force [N] of the interpolant at times[0] [s] (0 without a contact), and each
+    |q_j - q0_j| at times[1 + j]: (1 + n,)."""
+    n = model.n_coordinates
+    contact = jnp.zeros(1, times.dtype)
     if model.contacts:
-        contact = _contact_forces(model, times[2], q[2], qd[2], approach)["contact_force"]
-    displacements = jnp.abs(_coordinates_at(interpolation, n, times[3:]) - model.q0)
-    values = jnp.concatenate([jnp.stack([largest, magnitude, contact]), displacements])
-    return Peaks(values, times, loads)
+        y = interpolation.evaluate(times[0])
+        contact = _contact_forces(model, times[0], y[:n], y[n:], approach)["contact_force"][None]
+    displacements = jnp.abs(_coordinates_at(interpolation, n, times[1:]) - model.q0)
+    return jnp.concatenate([contact, displacements])
 
 
 def _coordinates_at(interpolation, n, times):
