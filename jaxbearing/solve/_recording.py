@@ -287,15 +287,15 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
     and the latest one is left open, so that `_close` counts it up to the end of the segment,
     which lies before its t1 when the segment ends at an event. The state starts with a
     placeholder step of length zero at y0 (values y0, slopes zero), which counts the segment's
-    initial state. Its peaks start from ``start``, the peaks so far of the span the segment
-    continues (none by default), so that a step is refined between its points (`_step_stats`)
-    only where it may rise above them.
+    initial state. Its peaks start from ``start``, the peaks so far of the stop interval the
+    segment continues (set by `_segment._solve` for each segment), so that a step is refined
+    between its points (`_step_stats`) only where it may rise above them.
     """
 
     solver: diffrax.AbstractSolver
     model: Mechanism
     fatigue: bool = eqx.field(static=True, default=True)  # record the `FatigueStats` integrals
-    start: Peaks | None = None
+    start: Peaks | None = None  # set for each segment by `_segment._solve`
 
     @property
     def term_structure(self):
@@ -324,7 +324,7 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
             lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
         )
         stats = (
-            no_peaks(self.model) if self.start is None else self.start,
+            self.start,
             jnp.zeros(INTEGRALS, y0.dtype),
             jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
         )
