@@ -170,8 +170,8 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     # between the points: the interpolant at the vertex of a parabola through them, for the
     # columns whose parabola rises there, in a step that may rise above the span's peaks so far
     # (``running``; by twice the parabola's rise): the bearing's columns and the others apart.
-    # Columns without rise are left as they are, so that a batch member's peaks do not depend
-    # on whether another member branched.
+    # Only the columns that may rise take their vertex's value, whichever branch ran, so that a
+    # batch member's peaks do not depend on whether another member (or column) branched.
     vertex, rise = _vertices(points.values)
     at = t_a + (t_b - t_a) * vertex
     may_rise = (rise > 0.0) & (peaks.values + 2.0 * rise > running.values)
@@ -186,7 +186,7 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
         lambda: _other_vertex(model, interpolation, at[2:], approach),
         lambda: jnp.full(at.shape[0] - 2, -jnp.inf, at.dtype),
     )
-    top = jnp.where(rise > 0.0, jnp.concatenate([bearing, others]), -jnp.inf)
+    top = jnp.where(may_rise, jnp.concatenate([bearing, others]), -jnp.inf)
     peaks = _add((peaks,), (Peaks(top, at, loads),))[0]
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
     integrands = jax.vmap(_integrands)(times[:3], gauss)
