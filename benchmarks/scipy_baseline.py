@@ -333,6 +333,7 @@ def simulate(
         ts (T,) [s]; q, qd (T, 12) [m, rad], [m/s, rad/s]; ball_loads (T, 8) [N], ball 1 first;
         bearing_force (T, 2) [N] on the crank; contact_force (T,) [N];
         onset_times, approach_speeds: contact onsets [s] and penetration rates there [m/s];
+        end_times: separations [s] (penetration -SEPARATION_OFFSET);
         steps (accepted, over all segments), rhs_calls (right-hand side evaluations, Jacobian
         columns included), segments, wall_s (integration and outputs) [s], method, rtol, atol.
 
@@ -371,7 +372,7 @@ def simulate(
     t = 0.0
     out = np.full((ts.size, 2 * n), np.nan)
     approach_out = np.zeros(ts.size)
-    onsets, speeds = [], []
+    onsets, speeds, ends = [], [], []
     steps = segments = 0
     while True:
         sol = solve_ivp(
@@ -393,6 +394,8 @@ def simulate(
             state["approach"] = model.gap(y[:n], y[n:])[1]
             onsets.append(t)
             speeds.append(state["approach"])
+        else:
+            ends.append(t)
         state["in_contact"] = not state["in_contact"]
     q, qd = out[:, :n], out[:, n:]
     loads = np.array([model.balls(q[i], qd[i])[0] for i in range(ts.size)])
@@ -409,6 +412,7 @@ def simulate(
         contact_force=contact,
         onset_times=np.array(onsets),
         approach_speeds=np.array(speeds),
+        end_times=np.array(ends),
         steps=steps,
         rhs_calls=calls,
         segments=segments,

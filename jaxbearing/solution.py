@@ -45,19 +45,31 @@ class SimulationError(RuntimeError):
 
 
 class Contacts(eqx.Module):
-    """Onsets of impact contacts, one slot per segment (padded; read ``valid``).
+    """Impact contacts, each from its onset to its end, one slot per segment (padded; read
+    ``valid``). Onsets and ends are the solve's events, located to 1e-13 s, and the peak is
+    the maximum of the solution over the contact's steps and their interpolants (as
+    `SegmentStats`' peaks), so none of them depends on the output times.
 
-    Fields:
-        time: onset times [s], NaN in unused slots, (number of segment slots,).
+    Fields (each (number of segment slots,)):
+        time: onset times [s], NaN in unused slots.
         approach_speed: penetration rate at onset, delta_dot^(-) of Eq. 23 [m/s].
         index: which contact of ``model.contacts`` started, -1 in unused slots.
         valid: True where the slot holds an onset.
+        end: when that contact ended [s]: its separation event, where the penetration has
+            fallen to -1 nm (`_segment.SEPARATION_OFFSET`: the force vanished 1 nm / separation
+            speed before); NaN where it lasted to the time reached, and in unused slots.
+        peak_force: the largest normal force over the contact [N], up to its end or the time
+            reached; recorded for the model's first contact only, NaN for the others.
+        peak_time: when the solution attains it [s] (the earliest recorded point).
     """
 
     time: jax.Array
     approach_speed: jax.Array
     index: jax.Array
     valid: jax.Array
+    end: jax.Array
+    peak_force: jax.Array
+    peak_time: jax.Array
 
     @property
     def count(self) -> jax.Array:

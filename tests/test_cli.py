@@ -28,7 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segments=6):
-    """A Solution-like namespace for the xu2014 layout (4 bodies x 3 coordinates)."""
+    """A Solution-like namespace for the xu2014 layout (4 bodies x 3 coordinates). ``onsets``:
+    (slot, (time, approach speed[, end, peak force, peak time[, contact index]]))."""
     ts = np.asarray(ts, dtype=float)
     T = ts.size
     q = np.zeros((T, 12))
@@ -39,11 +40,11 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
     qdd = np.zeros((T, 12))
     loads = np.zeros((T, 8)) if ball_loads is None else np.asarray(ball_loads, dtype=float)
     force = np.stack([3.0 * np.ones(T), 4.0 * np.ones(T)], axis=1)  # |F| = 5 N
-    times = np.full(max_segments, np.nan)
-    speeds = np.full(max_segments, np.nan)
-    valid = np.zeros(max_segments, bool)
-    for slot, (t, v) in onsets:
-        times[slot], speeds[slot], valid[slot] = t, v, True
+    records = np.full((5, max_segments), np.nan)  # time, speed, end, peak force, peak time
+    index = np.full(max_segments, -1)
+    for slot, record in onsets:
+        records[: len(record[:5]), slot] = record[:5]
+        index[slot] = record[5] if len(record) > 5 else 0
     contact = np.zeros(T) if contact_force is None else np.asarray(contact_force, dtype=float)
     return SimpleNamespace(
         ts=ts,
@@ -58,7 +59,8 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         penetration=np.zeros(T),
         drift=np.linspace(0.0, 1e-11, T),
         contacts=SimpleNamespace(
-            time=times, approach_speed=speeds, index=np.where(valid, 0, -1), valid=valid
+            time=records[0], approach_speed=records[1], index=index, valid=index >= 0,
+            end=records[2], peak_force=records[3], peak_time=records[4],
         ),
         t_final=ts[-1],
         num_steps=100,
@@ -138,6 +140,29 @@ def test_onsets_from_padded_contacts():
     np.testing.assert_allclose(speeds, [2.2, 0.5])
     assert report.first_contact(sol) == (0.0913, 2.2)
     assert all(math.isnan(x) for x in report.first_contact(fake_solution([0.0, 1.0])))
+
+
+def test_contacts_from_the_records():
+    """`report.contacts`: the first impact contact's records in time order, padded slots and
+    other contacts left out, a contact still on at the end ending at t_final; the summary's
+    contact intervals are these."""
+    sol = fake_solution(
+        np.linspace(0.0, 0.1, 11),
+        onsets=[
+            (4, (0.095, 0.5, math.nan, 80.0, 0.097)),
+            (1, (0.0913, 2.2, 0.0915, 6900.0, 0.0914)),
+            (2, (0.092, 0.3, 0.093, math.nan, math.nan, 1)),
+        ],
+    )
+    found = report.contacts(sol)
+    assert found == [
+        report.Contact(0.0913, 0.0915, 6900.0, 0.0914, 2.2),
+        report.Contact(0.095, 0.1, 80.0, 0.097, 0.5),
+    ]
+    assert report.summarize(sol)["contact_intervals"] == [
+        [0.0913, 0.0915, 6900.0, 0.0914],
+        [0.095, 0.1, 80.0, 0.097],
+    ]
 
 
 def test_contact_intervals():

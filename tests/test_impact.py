@@ -18,6 +18,7 @@ import jaxbearing as jb  # noqa: E402
 from jaxbearing.multibody import Body, CircleContact, Mechanism, Translational  # noqa: E402
 
 import helpers as ref  # noqa: E402
+from jaxbearing.solve._segment import SEPARATION_OFFSET  # noqa: E402
 
 K_PAPER = 1.07e10  # paper's K_d for two 10 mm steel circles [N/m^1.5]
 
@@ -167,6 +168,44 @@ def test_hertz_impact_contact_record(elastic):
     assert float(np.asarray(c.approach_speed)[valid][0]) == pytest.approx(V0, rel=1e-9)
     assert int(np.asarray(c.index)[valid][0]) == 0
     assert bool(sol.result == jb.RESULTS.successful)
+
+
+def test_hertz_impact_contact_end_and_peak(elastic):
+    """The contact's record against Hertz's closed form: it ends at the separation event, the
+    contact time after the onset plus the time the spheres take to move SEPARATION_OFFSET apart
+    (they leave at V0); its peak force is K delta_max^1.5, at the middle of the contact."""
+    _, k, sol = elastic
+    c = sol.contacts
+    valid = np.asarray(c.valid)
+    delta_max, t_contact = hertz_closed_form(k)
+    end, peak, when = (float(np.asarray(x)[valid][0]) for x in (c.end, c.peak_force, c.peak_time))
+    # the event is located to 1e-13 s on a trajectory whose positions are good to ~2e-12 m
+    # (rtol 1e-10 on ~2e-2 m), passed at 1 m/s: 1e-11 s, a hundredth of the 1 ns offset
+    want = GAP / V0 + t_contact + SEPARATION_OFFSET / V0
+    assert end == pytest.approx(want, rel=0.0, abs=1e-11)
+    # delta_max good to ~2e-12 m of 3.8e-5 m, so K delta^1.5 to ~1e-7
+    assert peak == pytest.approx(K_D * delta_max**1.5, rel=1e-7)
+    # a value 1e-7 below the top lies sqrt(2e-7) / omega = 1.6e-8 s from it (omega ~ pi / t_c)
+    assert when == pytest.approx(GAP / V0 + t_contact / 2, rel=0.0, abs=2e-8)
+
+
+def test_damped_impact_record_against_dense_samples():
+    """e = 0.7: no closed form, but 2900 samples (3.8e-8 s apart) inside the contact. The
+    recorded peak lies at or above the largest sample, by less than the sampling can miss
+    (omega^2 (dt / 2)^2 / 2 = 1.6e-7 relative), and within a sample spacing of it in time; the
+    end lies after the last sample in contact, by less than a spacing plus the time to open
+    SEPARATION_OFFSET at the relative exit speed (about e V0 = 0.7 m/s; bound 0.5 m/s)."""
+    model, _ = two_spheres(0.7)
+    sol = jb.simulate(model, T1, TS, rtol=RTOL, atol=ATOL)
+    c = sol.contacts
+    valid = np.asarray(c.valid)
+    end, peak, when = (float(np.asarray(x)[valid][0]) for x in (c.end, c.peak_force, c.peak_time))
+    force = np.asarray(sol.contact_force)
+    spacing = TS[1] - TS[0]
+    assert force.max() <= peak <= force.max() * (1 + 2e-7)
+    assert when == pytest.approx(TS[np.argmax(force)], rel=0.0, abs=spacing)
+    last = TS[np.flatnonzero(force > 0)[-1]]
+    assert last < end < last + spacing + SEPARATION_OFFSET / 0.5
 
 
 def test_hertz_impact_conserves_momentum_and_rebounds_elastically(elastic):

@@ -11,6 +11,7 @@ import pytest
 
 import jaxbearing as jb
 from jaxbearing import metrics as M
+from jaxbearing import report
 from jaxbearing.solution import INT_TIME
 from test_derivatives import TIGHT, converged_difference
 
@@ -203,12 +204,24 @@ def test_metrics_do_not_depend_on_the_output_times():
     1 % of the maximum over 200 001 samples and its time within 1 µs of that sample's; the
     target's displacement at its `peak_time` equal to its peak."""
     model, t1 = jb.cases.xu2014(impact=True), 0.2
-    values, times = {}, set()
+    values, times, contacts = {}, set(), set()
     for n in (21, 201, 2001, 200_001):
         sol = jb.simulate(model, t1, jnp.linspace(0.0, t1, n))
         values[n] = {name: float(fn(sol)) for name, fn in {**M.STANDARD, **M.SMOOTH}.items()}
         times.add(float(M.peak_time(sol, M.peak_impact_force)))
+        contacts.add(tuple(report.contacts(sol)))
     assert len(times) == 1  # the same time whatever the output times
+    assert len(contacts) == 1  # and the same contacts
+    # each contact against its samples 1 µs apart: it starts before its first sample in
+    # contact and ends after its last, by less than 1 µs (plus 1 nm at >= 0.01 m/s for the
+    # separation event); its peak at or above the largest sample (to 1e-7), by less than 1e-3
+    sampled = report.contact_intervals(report.series(sol))
+    found = contacts.pop()
+    assert len(found) == len(sampled) == 12
+    for contact, (start, end, peak) in zip(found, sampled):
+        assert start - 1e-6 < contact.start <= start
+        assert end <= contact.end < end + 1e-6 + 1e-9 / 0.01 or contact.end == t1
+        assert peak * (1 - 1e-7) <= contact.peak_force < peak * (1 + 1e-3)
     for n in (21, 201, 2001):
         for name, value in values[n].items():
             assert value == pytest.approx(values[200_001][name], rel=0.005), (n, name)

@@ -14,7 +14,9 @@ to the solver's accuracy, not to the last bit. The tolerances below follow from 
   clearance): 1e-4;
 - contact onsets are located to 1e-13 s on each run's own trajectory; positions of the two runs
   differ by ~1e-9 m, at approach speeds of 0.1–2 m/s: times within 1e-8 s; the approach
-  speeds, velocities after a sequence of contacts, by up to 1.5e-5 m/s (measured): 5e-5 m/s.
+  speeds, velocities after a sequence of contacts, by up to 1.5e-5 m/s (measured): 5e-5 m/s;
+  the contacts' ends are events like the onsets (1e-8 s), their peak forces peaks (5e-4); the
+  time of a peak moves along its flat top (measured up to 4.6e-8 s over 0.2 s): 1e-6 s.
 
 One span (0.1 s: the first impact's six contact onsets lie in 0.0913–0.0935 s) and one
 ``window_edges`` for every one-loop run, so that they share one compiled solve.
@@ -33,6 +35,7 @@ PEAK_TOLERANCE = 5e-4
 INTEGRAL_TOLERANCE = 1e-4
 ONSET_TOLERANCE = 1e-8  # [s]
 SPEED_TOLERANCE = 5e-5  # [m/s]
+PEAK_TIME_TOLERANCE = 1e-6  # [s]
 LIFE_TOLERANCE = 5e-4
 
 
@@ -62,13 +65,20 @@ def test_metrics_agree_with_simulate(paper_case):
     _assert_metrics_close(one_loop, segments)
 
 
-def test_contact_onsets_agree_with_simulate(paper_case):
+def test_contacts_agree_with_simulate(paper_case):
     _, one_loop, segments = paper_case
-    found = [np.asarray(c.time)[np.asarray(c.valid)] for c in (one_loop.contacts, segments.contacts)]
-    speeds = [np.asarray(c.approach_speed)[np.asarray(c.valid)] for c in (one_loop.contacts, segments.contacts)]
+    read = lambda c, name: np.asarray(getattr(c, name))[np.asarray(c.valid)]  # noqa: E731
+    runs = (one_loop.contacts, segments.contacts)
+    names = ("time", "approach_speed", "end", "peak_force", "peak_time")
+    found, speeds, ends, peaks, when = ([read(c, name) for c in runs] for name in names)
     assert found[0].size == found[1].size == 6
     np.testing.assert_allclose(found[0], found[1], rtol=0.0, atol=ONSET_TOLERANCE)
     np.testing.assert_allclose(speeds[0], speeds[1], rtol=0.0, atol=SPEED_TOLERANCE)
+    # ends are events like the onsets; the last contact lasts past T1 (NaN in both)
+    np.testing.assert_allclose(ends[0], ends[1], rtol=0.0, atol=ONSET_TOLERANCE)
+    assert np.isnan(ends[1][-1]) and np.all(np.isfinite(ends[1][:-1]))
+    np.testing.assert_allclose(peaks[0], peaks[1], rtol=PEAK_TOLERANCE)
+    np.testing.assert_allclose(when[0], when[1], rtol=0.0, atol=PEAK_TIME_TOLERANCE)
 
 
 def test_outputs_are_the_two_ends(paper_case):

@@ -135,6 +135,10 @@ def test_impact_run_agrees():
     speeds = np.asarray(ref.contacts.approach_speed)[valid]
     assert run["onset_times"].size == onsets.size == 6
     np.testing.assert_allclose(run["onset_times"], onsets, rtol=0, atol=1e-9)
+    # the separations: events like the onsets; the sixth contact lasts past 0.1 s
+    ends = np.asarray(ref.contacts.end)[valid]
+    assert run["end_times"].size == 5 and np.isnan(ends[5])
+    np.testing.assert_allclose(run["end_times"], ends[:5], rtol=0, atol=1e-9)
     np.testing.assert_allclose(run["approach_speeds"], speeds, rtol=0, atol=1e-6)
     pos = sb.POSITIONS
     assert np.max(np.abs(run["q"][:, pos] - np.asarray(ref.q)[:, pos])) < 1e-9

@@ -4,7 +4,8 @@
 Four rooms, one job each:
 
 - `_series`: named time series of a `Solution` (`series`), peaks over a time window (`peak`),
-  contact onsets and contact intervals. They accept a `Solution` or any object with the same
+  contact onsets, the contacts from the solve's records (`contacts`) and contact intervals
+  read off samples (`contact_intervals`). They accept a `Solution` or any object with the same
   fields (or, where noted, the dict that `series` returns), so they can be tested on hand-made
   inputs.
 - `_paper`: the paper's Table 5 read off a simulation (`table5`, `table5_rms`,
@@ -42,9 +43,11 @@ from ._paper import (
 )
 from ._series import (
     UNITS,
+    Contact,
     Peak,
     ball_keys,
     contact_intervals,
+    contacts,
     first_contact,
     onsets,
     peak,
@@ -56,9 +59,11 @@ __all__ = [
     "LOADED_THRESHOLD",
     "PEAK_FROM",
     "UNITS",
+    "Contact",
     "Peak",
     "ball_keys",
     "contact_intervals",
+    "contacts",
     "csv_columns",
     "first_contact",
     "format_summary",

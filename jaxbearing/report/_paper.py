@@ -10,7 +10,7 @@ import numpy as np
 from .. import metrics
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
 from ..metrics import T_MIN
-from ._series import as_series, ball_keys, contact_intervals, first_contact, onsets, series
+from ._series import as_series, ball_keys, contacts, first_contact, onsets, series
 
 PEAK_FROM = T_MIN  # [s] peaks are taken after the bearing's start-up transient (docs/model.md)
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
@@ -70,15 +70,17 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
 
     Keys (units in the suffix): ``t_final_s``, ``samples``, ``first_contact_time_s``,
     ``first_contact_approach_speed_m_per_s``, ``contact_count`` (onsets), ``onsets`` (list of
-    ``[time_s, approach_speed_m_per_s]``), ``contact_intervals`` (sampled ``[start_s, end_s,
-    peak_N]``), ``peak_impact_force_N`` (whole run), ``peak_bearing_force_N`` (|F| over t >=
-    ``t_min``, a stop of the solve), ``peak_ball_load_N`` (over t >= ``t_min``), each with its
-    ``_time_s``, and ``peak_ball_load_ball``; ``peak_window_from_s``, ``max_drift`` (max |Phi|
-    [m or rad]), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
+    ``[time_s, approach_speed_m_per_s]``), ``contact_intervals`` (``[start_s, end_s, peak_N,
+    peak_time_s]`` of each contact of the first impact contact: `contacts`),
+    ``peak_impact_force_N`` (whole run), ``peak_bearing_force_N`` (|F| over t >= ``t_min``, a
+    stop of the solve), ``peak_ball_load_N`` (over t >= ``t_min``), each with its ``_time_s``,
+    and ``peak_ball_load_ball``; ``peak_window_from_s``, ``max_drift`` (max |Phi| [m or rad]
+    over the output samples), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
 
     The peaks, their times and the ball are `jaxbearing.metrics`' (from every solver step and
     its interpolant, whatever the output times; NaN, and ball None, where the run ended before
-    ``t_min``); the balls are numbered from 1.
+    ``t_min``), and the contacts come from the solve's records as well; the balls are numbered
+    from 1.
     """
     data = series(sol)
     times, speeds = onsets(sol)
@@ -96,7 +98,7 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "first_contact_approach_speed_m_per_s": first_v,
         "contact_count": int(times.size),
         "onsets": [[float(a), float(b)] for a, b in zip(times, speeds)],
-        "contact_intervals": [list(x) for x in contact_intervals(data)],
+        "contact_intervals": [list(x[:4]) for x in contacts(sol)],
         "peak_impact_force_N": impact,
         "peak_impact_force_time_s": impact_t,
         "peak_bearing_force_N": bearing,

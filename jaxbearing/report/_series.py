@@ -1,5 +1,6 @@
 """Named time series of a simulation of the paper's case, and what is read off them: peaks over a
-window, contact onsets and sampled contact intervals (names and units in `jaxbearing.report`)."""
+window, contact onsets, the contacts from the solve's records and contact intervals read off
+samples (names and units in `jaxbearing.report`)."""
 
 from __future__ import annotations
 
@@ -130,11 +131,36 @@ def first_contact(sol) -> tuple[float, float]:
     return (float(times[0]), float(speeds[0])) if times.size else (math.nan, math.nan)
 
 
+class Contact(NamedTuple):
+    """One impact contact of a solve (`contacts`)."""
+
+    start: float  # onset [s]
+    end: float  # separation event [s] (`jaxbearing.Contacts.end`); the time reached if later
+    peak_force: float  # largest normal force over the contact [N]
+    peak_time: float  # when it is attained [s]
+    approach_speed: float  # penetration rate at onset [m/s]
+
+
+def contacts(sol) -> list[Contact]:
+    """Every contact of the model's first impact contact, in time order, from the solve's
+    records (``sol.contacts``): onset and end located as events, the peak force over the
+    solution's steps and interpolants, so the same whatever the output times. A contact that
+    lasted to the end of the run ends at ``sol.t_final``."""
+    c = sol.contacts
+    first = np.asarray(c.valid, dtype=bool) & (np.asarray(c.index) == 0)
+    fields = [np.asarray(x, dtype=float)[first] for x in
+              (c.time, c.end, c.peak_force, c.peak_time, c.approach_speed)]
+    t_final = float(sol.t_final)
+    found = [Contact(a, t_final if math.isnan(b) else b, f, p, v) for a, b, f, p, v in zip(*fields)]
+    return sorted(found)
+
+
 def contact_intervals(data, threshold: float = 0.0) -> list[tuple[float, float, float]]:
     """Sampled intervals of contact: ``(start [s], end [s], peak force [N])`` for each run of
-    consecutive samples with ``contact_force > threshold``. Start and end are the first and last
-    sample in contact, so they are accurate to the sample spacing (the exact onsets are in
-    ``sol.contacts``)."""
+    consecutive samples with ``contact_force > threshold``, from series (e.g. read back from a
+    CSV file). Start and end are the first and last sample in contact, so they are accurate to
+    the sample spacing, and the peak is the largest sample: a contact shorter than the spacing
+    can be missed. From a `Solution`, `contacts` gives them from the solve's records."""
     data = as_series(data)
     t = np.asarray(data["t"], dtype=float)
     f = np.asarray(data["contact_force"], dtype=float)

@@ -44,7 +44,7 @@ import jax.numpy as jnp
 from .. import _checks
 from ..compile import jit
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, Contacts
+from ..solution import PEAK_CONTACT_FORCE, RESULTS, Contacts
 from ._recording import (
     INTEGRALS,
     Peaks,
@@ -147,6 +147,8 @@ class _State(NamedTuple):
     fatigue: jax.Array  # (n_stops, 5 + 2 M)
     onsets: tuple  # (time, approach speed, index) each (ONSET_SLOTS,)
     n_onsets: jax.Array
+    spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact (`Contacts`)
+    current: jax.Array  # (n_contacts,) the onset slot of each contact in force, -1 for none
     events: jax.Array
     steps: jax.Array
     rejected: jax.Array
@@ -217,9 +219,12 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         y_event = interpolation.evaluate(t_event)
         approach, in_contact, engaged = s.approach, s.in_contact, s.engaged
         record = (s.t, s.t, jnp.asarray(-1), jnp.asarray(False))  # no onset
+        separated = jnp.zeros_like(s.in_contact)
         overlap = jnp.zeros((), bool)
         if has_events:
-            approach, in_contact, engaged, record, overlap = _switch(model, s, t_event, y_event, located)
+            approach, in_contact, engaged, record, separated, overlap = _switch(
+                model, s, t_event, y_event, located
+            )
         events = s.events + located
 
         # 2. the stages: a step from (t, y), or the first stage after a switch
@@ -257,7 +262,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         r_step_end = jnp.where(located, s.step_end, t_b)
         stepped = _TSIT5.interpolation_cls(t0=s.t, t1=r_step_end, y0=s.y, y1=s.y, k=r_k)
         row = jax.tree_util.tree_map(lambda x: _row(x, here), (s.peaks, s.integrals, s.fatigue))
-        stats = _step_stats(model, stepped, s.t, r_end, args, fatigue, row[0])
+        stats = _step_stats(model, stepped, s.t, r_end, args, fatigue, _running(s, row[0]))
         row = jax.tree_util.tree_map(lambda a, b: jnp.where(recorded, a, b), _add(row, stats), row)
         into = lambda x, r: _where_rows(here, jnp.broadcast_to(r, x.shape), x)  # noqa: E731
 
@@ -285,6 +290,7 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         onset = located & record[3]
         slot = onset & (jnp.arange(ONSET_SLOTS) == s.n_onsets)
         onsets = tuple(jnp.where(slot, v, o) for o, v in zip(s.onsets, record[:3]))
+        spans, current = _spans(s, recorded, stats[0], separated, t_event, onset, record[2])
         return _State(
             t=t_next,
             y=y_next,
@@ -306,6 +312,8 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
             fatigue=into(s.fatigue, row[2]),
             onsets=onsets,
             n_onsets=s.n_onsets + onset,
+            spans=spans,
+            current=current,
             events=events,
             steps=s.steps + stepping,
             rejected=s.rejected + (stepping & ~keep),
@@ -327,8 +335,11 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
     )
     time, speed, index = final.onsets
     kept = jnp.arange(ONSET_SLOTS) < final.n_onsets
+    end, peak, peak_time = final.spans
+    found = kept & (index == 0) & (peak > -jnp.inf)
     contacts = Contacts(jnp.where(kept, time, jnp.nan), jnp.where(kept, speed, jnp.nan),
-                        jnp.where(kept, index, -1), kept)
+                        jnp.where(kept, index, -1), kept, jnp.where(kept, end, jnp.nan),
+                        jnp.where(found, peak, jnp.nan), jnp.where(found, peak_time, jnp.nan))
     return _outputs(
         model,
         ts,
@@ -346,6 +357,38 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         final.rejected,
         jnp.sum(valid) + final.events,
     )
+
+
+def _running(s: _State, peaks: Peaks) -> Peaks:
+    """The peaks so far that decide whether a step is refined between its points: the stop
+    interval's (``peaks``), and for the contact force the lower of that and the current
+    contact's so far (-inf outside a contact), so that both peaks are the interpolant's."""
+    if not s.current.shape[0]:
+        return peaks
+    current = jnp.arange(ONSET_SLOTS) == s.current[0]
+    so_far = jnp.max(jnp.where(current & s.in_contact[0], s.spans[1], -jnp.inf))
+    contact = jnp.minimum(peaks.values[PEAK_CONTACT_FORCE], so_far)
+    return peaks._replace(values=peaks.values.at[PEAK_CONTACT_FORCE].set(contact))
+
+
+def _spans(s: _State, recorded, peaks: Peaks, separated, t_event, onset, index):
+    """`_State.spans` and ``current`` after an iteration: the first contact's peak joins its
+    contact's where a step in contact was recorded (``peaks``: the step's), the contacts that
+    ``separated`` end at ``t_event``, and an ``onset`` of contact ``index`` takes the next slot
+    (none beyond `ONSET_SLOTS`)."""
+    slots = jnp.arange(ONSET_SLOTS)
+    end, peak, peak_time = s.spans
+    if not s.current.shape[0]:
+        return s.spans, s.current
+    value, when = peaks.values[PEAK_CONTACT_FORCE], peaks.times[PEAK_CONTACT_FORCE]
+    later = recorded & s.in_contact[0] & (slots == s.current[0]) & (value > peak)
+    peak, peak_time = jnp.where(later, value, peak), jnp.where(later, when, peak_time)
+    ends = jnp.any(separated[:, None] & (slots[None, :] == s.current[:, None]), axis=0)
+    end = jnp.where(ends, t_event, end)
+    contacts = jnp.arange(s.current.shape[0])
+    starts = onset & (contacts == index) & (s.n_onsets < ONSET_SLOTS)
+    current = jnp.where(separated, -1, jnp.where(starts, s.n_onsets, s.current))
+    return (end, peak, peak_time), current
 
 
 def _row(x, here):
@@ -387,6 +430,8 @@ def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
         fatigue=jnp.zeros((stops.shape[0], fatigue_size(model, fatigue))),
         onsets=(jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, jnp.nan), jnp.full(ONSET_SLOTS, -1)),
         n_onsets=jnp.asarray(0),
+        spans=tuple(jnp.full(ONSET_SLOTS, x) for x in (jnp.nan, -jnp.inf, jnp.nan)),
+        current=jnp.full(n_contacts, -1),
         events=jnp.asarray(0),
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import optimistix as optx
 
 from ..laws.bearing import BALL_RELEASE
-from ..solution import RESULTS
+from ..solution import PEAK_CONTACT_FORCE, RESULTS
 from ._progress import _Progress
 from ._recording import INTEGRALS, Peaks, _add, _close, fatigue_size, no_peaks
 
@@ -345,8 +345,10 @@ def _solve(s: _Setup, c: _Carry, t_stop, args):
     fresh = s.controller.init(s.term, c.t, t_stop, c.y, dt0, args, s.recording.func, None)[1]
     state = jax.tree_util.tree_map(lambda a, b: jnp.where(c.resume, a, b), c.control, fresh)
     dt0 = jnp.where(c.resume, jnp.minimum(c.control[1], t_stop - c.t), dt0)
-    # the peaks start from the stop interval's so far: steps are refined only above them
+    # the peaks start from the stop interval's so far: steps are refined only above them;
+    # the contact force's from none, so that the segment's own peak is recorded (`segment`)
     start = jax.tree_util.tree_map(lambda x: x[c.cell], c.peaks)
+    start = start._replace(values=start.values.at[PEAK_CONTACT_FORCE].set(-jnp.inf))
     return diffrax.diffeqsolve(
         s.term,
         eqx.tree_at(lambda r: r.start, s.recording, start, is_leaf=lambda x: x is None),
@@ -389,7 +391,8 @@ def _end(s: _Setup, c: _Carry, sol, last):
 
 def _switch(model, c: _Carry, t_end, y_end, hit):
     """Switch what the event found, the located one and any other already across: (approach,
-    in_contact, engaged, onset record (time, approach speed, contact index, valid), overlap).
+    in_contact, engaged, onset record (time, approach speed, contact index, valid), separated
+    (n_contacts,) bool (the contacts that end here), overlap).
     ``overlap``: a contact switched on (its ``active_from``) with its surfaces overlapping by more
     than `SEPARATION_OFFSET` (a crossing located to `EVENT_TIME_TOLERANCE` overlaps by about
     1e-13 m); the solve then fails with `RESULTS.contact_overlap`."""
@@ -397,6 +400,7 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
     record = _no_onset(c.t)
     overlap = jnp.zeros((), bool)
     n, n_contacts = model.n_coordinates, len(model.contacts)
+    separated = jnp.zeros(n_contacts, bool)
     values = event_values(model, t_end, y_end, in_contact, c.engaged)
     located = jnp.arange(values.shape[0]) == jnp.argmax(values)
     switch = (located | (values > 0)) & hit
@@ -407,6 +411,7 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
         onset = contact_switch & ~in_contact
         approach = jnp.where(onset, rate, approach)
         overlap = jnp.any(onset & (penetration > SEPARATION_OFFSET))
+        separated = contact_switch & in_contact
         in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
         has_onset = jnp.any(onset)
         record = (
@@ -415,7 +420,7 @@ def _switch(model, c: _Carry, t_end, y_end, hit):
             jnp.where(has_onset, jnp.argmax(onset), -1).astype(int),
             has_onset,
         )
-    return approach, in_contact, engaged, record, overlap
+    return approach, in_contact, engaged, record, separated, overlap
 
 
 def _no_onset(t) -> tuple:
@@ -522,8 +527,8 @@ def _where_rows(rows, x, y):
 
 
 def segment(s: _Setup, c: _Carry, slot):
-    """One slot of the segment loop: (next carry, (onset record, t reached, used)). The
-    segment's peaks and integrals join those of its stop interval in the carry."""
+    """One slot of the segment loop: (next carry, (onset record, t reached, used, `_Span`)).
+    The segment's peaks and integrals join those of its stop interval in the carry."""
     # finished members (reached t1, or failed: then t is set to t1 with the stop where it
     # failed) idle in zero-length solves, never backwards from t1 to their stop
     t_stop = jnp.where(c.done, c.t, s.stops[c.cell])
@@ -543,9 +548,12 @@ def segment(s: _Setup, c: _Carry, slot):
     interval = _add(jax.tree_util.tree_map(cell, (c.peaks, c.integrals, c.fatigue)), ours)
     approach, in_contact, engaged = c.approach, c.in_contact, c.engaged
     record = _no_onset(c.t)
+    separated = jnp.zeros_like(c.in_contact)
     overlap = jnp.zeros((), bool)
     if s.event is not None:
-        approach, in_contact, engaged, record, overlap = _switch(s.model, c, t_end, y_end, hit)
+        approach, in_contact, engaged, record, separated, overlap = _switch(
+            s.model, c, t_end, y_end, hit
+        )
     failure = RESULTS.where(overlap, RESULTS.contact_overlap, RESULTS.promote(sol.result))
     ok = ok & ~overlap
     t_reached = jnp.where(c.done, c.t, t_end)
@@ -581,7 +589,50 @@ def segment(s: _Setup, c: _Carry, slot):
         began=began,
         accepted=accepted,
     )
-    return carry, record + (t_reached, ~c.done)
+    span = _Span(
+        separated,
+        c.in_contact & ~c.done,
+        ours[0].values[PEAK_CONTACT_FORCE],
+        ours[0].times[PEAK_CONTACT_FORCE],
+    )
+    return carry, record + (t_reached, ~c.done, span)
+
+
+class _Span(NamedTuple):
+    """A segment's part in the contacts it ran in (`contact_spans`): which contacts end at its
+    end, which it ran in, and its own peak of the first contact's normal force [N] and when
+    [s]."""
+
+    separated: jax.Array  # (n_contacts,) bool
+    in_contact: jax.Array  # (n_contacts,) bool
+    peak: jax.Array
+    peak_time: jax.Array
+
+
+def contact_spans(onset_index, onset_valid, t_reached, span: _Span):
+    """The end [s] of each onset's contact (NaN where it lasts past the time reached, and in
+    slots without an onset), and its peak normal force [N] and when [s] (the first contact's
+    only; NaN for the others), from the slots' records (S,): each onset owns the slots from it
+    to its contact's separation."""
+    slots = onset_index.shape[0]
+    index = jnp.arange(slots)
+    end = jnp.full(slots, jnp.nan, t_reached.dtype)
+    peak = jnp.full(slots, -jnp.inf, t_reached.dtype)
+    peak_time = jnp.full(slots, jnp.inf, t_reached.dtype)
+    for k in range(span.separated.shape[-1]):
+        opened = onset_valid & (onset_index == k)
+        owner = jax.lax.cummax(jnp.where(opened, index, -1))  # the latest onset of contact k
+        ends_here = span.separated[:, k] & (owner >= 0)
+        end = end.at[jnp.where(ends_here, owner, slots)].set(t_reached, mode="drop")
+        if k == 0:  # the peaks record the first contact's force
+            ran = span.in_contact[:, 0] & (owner >= 0)
+            at = jnp.where(ran, owner, slots)
+            peak = peak.at[at].max(span.peak, mode="drop")
+            attains = ran & (span.peak >= peak[jnp.minimum(at, slots - 1)])
+            earliest = jnp.where(attains, span.peak_time, jnp.inf)
+            peak_time = peak_time.at[jnp.where(attains, owner, slots)].min(earliest, mode="drop")
+    found = onset_valid & (onset_index == 0) & (peak > -jnp.inf)
+    return end, jnp.where(found, peak, jnp.nan), jnp.where(found, peak_time, jnp.nan)
 
 
 def slot(s: _Setup, c: _Carry, index):
@@ -590,7 +641,9 @@ def slot(s: _Setup, c: _Carry, index):
     solving, so that the slots a batch leaves unused cost next to nothing."""
 
     def idle(c, index):
-        return c, _no_onset(c.t) + (c.t, jnp.asarray(False))
+        none, nan = jnp.zeros_like(c.in_contact), jnp.full((), jnp.nan, c.t.dtype)
+        span = _Span(none, none, jnp.full((), -jnp.inf, c.t.dtype), nan)
+        return c, _no_onset(c.t) + (c.t, jnp.asarray(False), span)
 
     return jax.lax.cond(_batch_runs(c.done), functools.partial(segment, s), idle, c, index)
 

@@ -59,6 +59,7 @@ from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
     _where_rows,
+    contact_spans,
     full_rows,
     initial_carry,
     make_event,
@@ -450,7 +451,8 @@ def _simulate(
     init = initial_carry(setup, y0, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
     final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
-    onset_t, onset_v, onset_i, onset_valid, t_reached, used = records
+    onset_t, onset_v, onset_i, onset_valid, t_reached, used, span = records
+    end, peak, peak_time = contact_spans(onset_i, onset_valid, t_reached, span)
     t_final = jnp.max(jnp.where(used, t_reached, t0))
     result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
     t_start, t_end, valid = _intervals(setup.stops, t0, t_final)
@@ -463,7 +465,7 @@ def _simulate(
         functools.partial(output_rows, final),
         final.written,
         full_rows(final),
-        Contacts(onset_t, onset_v, onset_i, onset_valid),
+        Contacts(onset_t, onset_v, onset_i, onset_valid, end, peak, peak_time),
         segments,
         fatigue,
         result,
