@@ -12,7 +12,11 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   the smooth ball force (the model for gradients); every CPU item runs with
   `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), one Tsit5 row
   without it (``--plain-loops``), for the gain, and one with `jaxbearing.enable_entry_elimination`
-  as well (``--entries``: FMA off, Eq. 36 solved entry by entry);
+  as well (``--entries``: FMA off, Eq. 36 solved entry by entry); every CPU item also with
+  `jaxbearing.enable_memory_reuse` (freed memory kept in the process, as the ``jaxbearing``
+  command does);
+- the cost of 200 001 output times against 2001, also without `enable_memory_reuse`
+  (``outputs_no_memory_reuse``: each call's fresh buffers then cost page faults);
 - compile time of a forward run and of a 3-parameter forward-mode gradient, and the cost of that
   gradient (clearance, restitution, ball stiffness; smooth peak ball load) relative to one
   forward run of the same model and metric, for the paper and the smooth ball force;
@@ -471,14 +475,17 @@ def _solver_rows(n):
 
 
 def _outputs_row(settings, results):
-    row = _child("outputs", settings)
-    results["outputs"] = row
-    (n, dense), (wall, dense_wall) = row["output_times"], row["wall_s"]
-    print(
-        f"\noutput times: {dense} cost {dense_wall:.3f} s = {row['ratio']:.2f} x {n} ({wall:.3f} s); "
-        f"{row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
-        flush=True,
-    )
+    print()
+    for key, options in (("outputs", {}), ("outputs_no_memory_reuse", {"no_memory_reuse": True})):
+        row = _child("outputs", settings, **options)
+        results[key] = row
+        (n, dense), (wall, dense_wall) = row["output_times"], row["wall_s"]
+        print(
+            f"output times{'' if row['memory_reuse'] else ' (freed memory returned)'}: {dense} cost "
+            f"{dense_wall:.3f} s = {row['ratio']:.2f} x {n} ({wall:.3f} s); "
+            f"{row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+            flush=True,
+        )
 
 
 def _gradient_row(settings, results):
@@ -681,6 +688,8 @@ def main(argv=None):
                         help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
     parser.add_argument("--entries", action="store_true",
                         help="with jb.enable_entry_elimination (FMA off, Eq. 36 solved entry by entry)")
+    parser.add_argument("--no-memory-reuse", action="store_true",
+                        help="without jb.enable_memory_reuse (freed memory returns to the system)")
     args = parser.parse_args(argv)
     if args.item:
         if not args.plain_loops:
@@ -691,9 +700,14 @@ def main(argv=None):
             from jaxbearing.compile import enable_entry_elimination
 
             assert enable_entry_elimination()
+        if not args.no_memory_reuse:
+            from jaxbearing.compile import enable_memory_reuse
+
+            enable_memory_reuse()
         row = ITEMS[args.item](args)
         row["loop_kernels"] = not args.plain_loops
         row["entries"] = args.entries
+        row["memory_reuse"] = not args.no_memory_reuse
         row["peak_memory_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(json.dumps(row))
         return

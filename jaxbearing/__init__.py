@@ -9,11 +9,12 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 On the CPU, call `enable_loop_kernels()` before the first computation: the solver's loops then
 run as whole functions, much faster; `enable_entry_elimination()` as well, and the solver solves
-Eq. 36 entry by entry, faster again (`jaxbearing.compile`).
+Eq. 36 entry by entry, faster again; `enable_memory_reuse()` keeps freed memory in the process,
+which saves runs with many output times their page faults (`jaxbearing.compile`).
 """
 
 from . import cases, laws, life, metrics, multibody, paths
-from .compile import enable_entry_elimination, enable_loop_kernels, jit
+from .compile import enable_entry_elimination, enable_loop_kernels, enable_memory_reuse, jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .solution import RESULTS, Contacts, SimulationError, Solution
@@ -43,6 +44,7 @@ __all__ = [
     "default_solver",
     "enable_entry_elimination",
     "enable_loop_kernels",
+    "enable_memory_reuse",
     "jit",
     "kvaerno5",
     "laws",

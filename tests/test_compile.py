@@ -206,3 +206,36 @@ def test_loop_kernels_compile_loops_whole_in_a_fresh_process():
     assert on["enabled"] and on["whole"]
     assert not off["whole"]
     np.testing.assert_allclose(on["q"], off["q"], rtol=0, atol=2e-8)
+
+
+_PAGES = """
+import json, resource, sys
+import jax
+import numpy as np
+import jaxbearing as jb
+jax.config.update("jax_enable_x64", True)
+on = jb.enable_memory_reuse() if sys.argv[1] == "on" else False
+model, ts = jb.cases.xu2014(impact=False), np.linspace(0.0, 0.01, 100_001)
+faults = []
+for _ in range(6):  # each call's outputs (about 60 MB) freed before the next call
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    jax.block_until_ready(jb.simulate(model, 0.01, ts))
+    faults.append(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+print(json.dumps({"on": on, "faults": faults}))
+"""
+
+
+@pytest.mark.slow
+def test_memory_reuse_keeps_freed_memory_for_the_next_call():
+    """`enable_memory_reuse` on glibc (this machine's C library): a simulation with 100 001
+    output times, called again and again, takes its buffers from the memory the previous call
+    freed, without page faults from the third call on (measured: at most 27); without it every
+    call faults on its fresh buffers (measured: 12 600 to 15 500 faults a call)."""
+    runs = {}
+    for mode in ("on", "off"):
+        done = subprocess.run([sys.executable, "-c", _PAGES, mode], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs[mode] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert runs["on"]["on"]
+    assert max(runs["on"]["faults"][2:]) < 500
+    assert min(runs["off"]["faults"][2:]) > 5_000
