@@ -56,7 +56,16 @@ from ._recording import (
     no_peaks,
     point_peaks,
 )
-from ._segment import EVENT_TIME_TOLERANCE, JUMP, _ITPState, _switch, event_values, itp_start, itp_step
+from ._segment import (
+    EVENT_TIME_TOLERANCE,
+    JUMP,
+    _ITPState,
+    _switch,
+    event_values,
+    first_contact_peaks,
+    itp_start,
+    itp_step,
+)
 from ._simulate import (
     ATOL,
     INITIAL_STEP,
@@ -336,10 +345,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
     time, speed, index = final.onsets
     kept = jnp.arange(ONSET_SLOTS) < final.n_onsets
     end, peak, peak_time = final.spans
-    found = kept & (index == 0) & (peak > -jnp.inf)
     contacts = Contacts(jnp.where(kept, time, jnp.nan), jnp.where(kept, speed, jnp.nan),
                         jnp.where(kept, index, -1), kept, jnp.where(kept, end, jnp.nan),
-                        jnp.where(found, peak, jnp.nan), jnp.where(found, peak_time, jnp.nan))
+                        *first_contact_peaks(kept, index, peak, peak_time))
     return _outputs(
         model,
         ts,
@@ -376,10 +384,10 @@ def _spans(s: _State, recorded, peaks: Peaks, separated, t_event, onset, index):
     contact's where a step in contact was recorded (``peaks``: the step's), the contacts that
     ``separated`` end at ``t_event``, and an ``onset`` of contact ``index`` takes the next slot
     (none beyond `ONSET_SLOTS`)."""
-    slots = jnp.arange(ONSET_SLOTS)
-    end, peak, peak_time = s.spans
     if not s.current.shape[0]:
         return s.spans, s.current
+    slots = jnp.arange(ONSET_SLOTS)
+    end, peak, peak_time = s.spans
     value, when = peaks.values[PEAK_CONTACT_FORCE], peaks.times[PEAK_CONTACT_FORCE]
     later = recorded & s.in_contact[0] & (slots == s.current[0]) & (value > peak)
     peak, peak_time = jnp.where(later, value, peak), jnp.where(later, when, peak_time)

@@ -288,8 +288,9 @@ class _Recording(diffrax.AbstractAdaptiveSolver):
     which lies before its t1 when the segment ends at an event. The state starts with a
     placeholder step of length zero at y0 (values y0, slopes zero), which counts the segment's
     initial state. Its peaks start from ``start``, the peaks so far of the stop interval the
-    segment continues (set by `_segment._solve` for each segment), so that a step is refined
-    between its points (`_step_stats`) only where it may rise above them.
+    segment continues (set by `_segment._solve` for each segment; the contact force's from none,
+    so that the segment's own peak is recorded), so that a step is refined between its points
+    (`_step_stats`) only where it may rise above them.
     """
 
     solver: diffrax.AbstractSolver

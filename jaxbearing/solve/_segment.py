@@ -631,8 +631,15 @@ def contact_spans(onset_index, onset_valid, t_reached, span: _Span):
             attains = ran & (span.peak >= peak[jnp.minimum(at, slots - 1)])
             earliest = jnp.where(attains, span.peak_time, jnp.inf)
             peak_time = peak_time.at[jnp.where(attains, owner, slots)].min(earliest, mode="drop")
-    found = onset_valid & (onset_index == 0) & (peak > -jnp.inf)
-    return end, jnp.where(found, peak, jnp.nan), jnp.where(found, peak_time, jnp.nan)
+    return (end,) + first_contact_peaks(onset_valid, onset_index, peak, peak_time)
+
+
+def first_contact_peaks(valid, index, peak, peak_time):
+    """``Contacts.peak_force`` and ``peak_time`` from running peaks per onset slot (-inf where
+    none was recorded): NaN in slots without an onset of the first contact, whose force is the
+    one recorded (`simulate`'s `contact_spans` and `simulate_one_loop`)."""
+    found = valid & (index == 0) & (peak > -jnp.inf)
+    return jnp.where(found, peak, jnp.nan), jnp.where(found, peak_time, jnp.nan)
 
 
 def slot(s: _Setup, c: _Carry, index):
