@@ -28,7 +28,9 @@ options cannot carry, so it goes through the ``XLA_FLAGS`` environment variable,
 once, when JAX starts its backends: call it before the first computation (the ``jaxbearing``
 command, the studies and the benchmark do). Other backends ignore it (XLA hands no ``xla_``
 entry of that map to LLVM). Loops that call library routines (the LU factorisation of
-Kvaerno5's Newton iteration) stay as they are.
+Kvaerno5's Newton iteration) stay as they are, and so does the loop that evaluates the output
+times after the solve (`kernel_by_kernel`): its kernels are large (a batch of output times each),
+and run kernel by kernel XLA:CPU splits each over the cores, which a loop compiled whole does not.
 
 A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
@@ -64,6 +66,7 @@ import os
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 
 try:  # True outside every transformation; private, so without it the options are not applied
     from jax._src.core import trace_state_clean
@@ -156,6 +159,19 @@ def _glibc():
         return None
     libc.mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     return libc
+
+
+def kernel_by_kernel(index):
+    """The integer loop index ``index`` unchanged, through a library call (the Cholesky factor
+    of a 1 x 1 matrix, exactly 1), so that XLA:CPU does not compile the loop that uses it into
+    one function under `enable_loop_kernels` (its pass leaves loops with library calls as they
+    are). The loop's body then runs kernel by kernel, and XLA:CPU splits each large kernel over
+    the cores: for loops over large batches (the outputs' evaluation), not for the solver's
+    loops, whose many small kernels are what that pass saves. Costs one library call a
+    trip."""
+    matrix = jnp.ones((1, 1)) + 0.0 * index  # depends on the trip, so it stays in the loop
+    one = jax.lax.linalg.cholesky(matrix, symmetrize_input=False)[0, 0]
+    return index + (one - 1.0).astype(jnp.asarray(index).dtype)
 
 
 @functools.cache

@@ -185,8 +185,13 @@ enabled = jb.enable_loop_kernels() if sys.argv[1] == "on" else False
 jax.config.update("jax_enable_x64", True)
 loop = jax.jit(lambda x: jax.lax.fori_loop(0, 3, lambda i, v: jax.numpy.sin(v)[::-1], x))
 whole = "xla_cpu_small_call" in loop.lower(jax.numpy.ones(300)).compile().as_text()
+by_kernel = lambda i, v: jax.numpy.roll(jax.numpy.sin(v), jb.compile.kernel_by_kernel(i) + 1)
+apart = jax.jit(lambda x: jax.lax.fori_loop(0, 3, by_kernel, x))
+apart_whole = "xla_cpu_small_call" in apart.lower(jax.numpy.ones(300)).compile().as_text()
+rolled = np.asarray(apart(jax.numpy.linspace(0.0, 1.0, 300))).tolist()
 sol = jb.simulate(jb.cases.xu2014(impact=False), 0.002, np.linspace(0.0, 0.002, 3), time_cells=1)
-print(json.dumps(dict(enabled=enabled, whole=whole, q=np.asarray(sol.q).tolist())))
+print(json.dumps(dict(enabled=enabled, whole=whole, apart_whole=apart_whole, rolled=rolled,
+                     q=np.asarray(sol.q).tolist())))
 """
 
 
@@ -199,12 +204,20 @@ def _fresh(mode):
 
 def test_loop_kernels_compile_loops_whole_in_a_fresh_process():
     """Before the first computation the flag takes effect: XLA:CPU compiles the loop into one
-    call (``xla_cpu_small_call``); the simulation agrees with the plain one to the solver's
-    accuracy (other kernels round differently, as in
-    test_simulate_inside_a_user_jit_equals_the_top_level_call)."""
+    call (``xla_cpu_small_call``), but not one whose index passes through `kernel_by_kernel`;
+    the simulation agrees with the plain one to the solver's accuracy (other kernels round
+    differently, as in test_simulate_inside_a_user_jit_equals_the_top_level_call).
+    """
     on, off = _fresh("on"), _fresh("off")
     assert on["enabled"] and on["whole"]
     assert not off["whole"]
+    # a loop whose index passes through `kernel_by_kernel` runs kernel by kernel, unchanged
+    assert not on["apart_whole"] and not off["apart_whole"]
+    x = np.linspace(0.0, 1.0, 300)
+    for i in range(3):
+        x = np.roll(np.sin(x), i + 1)
+    np.testing.assert_allclose(on["rolled"], x, rtol=1e-14)  # a few ulps of three sines
+    assert on["rolled"] == off["rolled"]
     np.testing.assert_allclose(on["q"], off["q"], rtol=0, atol=2e-8)
 
 

@@ -43,7 +43,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from .._forms import output_forms
-from ..compile import entry_elimination, jit, trace_state_clean
+from ..compile import entry_elimination, jit, kernel_by_kernel, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -587,7 +587,7 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
 
     def body(i, outputs):
-        start = jnp.minimum(i * batch, T - batch).astype(jnp.int32)
+        start = jnp.minimum(kernel_by_kernel(i) * batch, T - batch).astype(jnp.int32)
         put = lambda buffer, x: jax.lax.dynamic_update_slice_in_dim(buffer, x, start, 0)
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
