@@ -35,7 +35,7 @@ and run kernel by kernel XLA:CPU splits each over the cores, which a loop compil
 A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
 before it is added wherever XLA computes it. With it the solver integrates Eq. 36 with the
-entry-by-entry elimination and the cheaper forms of cos, sin and d^1.5 that the outputs use
+entry-by-entry elimination and the cheaper form of cos and sin that the outputs use
 (`entry_elimination`, `jaxbearing._forms`), and a vmapped sweep member still equals its single
 run to the last bit (`jaxbearing.multibody.mechanism` explains why that needs FMA off). It too
 goes through ``XLA_FLAGS`` and affects every XLA:CPU computation of the process. Other backends

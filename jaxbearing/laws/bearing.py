@@ -120,13 +120,11 @@ def ring_point_loads(
     normal = jnp.stack([-axis[1], axis[0]])
     local = [jnp.sum(x * a) for x in (eccentricity, eccentricity_rate) for a in (axis, normal)]
     pitch = _pitch_angles(n_points)
-    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None, cheap=True)
+    return _loads(np.cos(pitch), np.sin(pitch), local[:2], local[2:], bearing, None)
 
 
-def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, cheap=False):
-    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]; ``cheap``: depth^n as
-    `_forms.power` writes it cheaply (the motion keeps the general power, so that its rounding
-    stays as it was)."""
+def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
+    """Eqs. 9, 12–13 for balls in the directions (cos, sin) [N]."""
     delta = eccentricity[0] * cos + eccentricity[1] * sin - 0.5 * bearing.clearance
     rate = eccentricity_rate[0] * cos + eccentricity_rate[1] * sin
     positive = delta > 0.0
@@ -135,7 +133,7 @@ def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged, cheap=Fa
     damping = bearing.damping * rate
     if bearing.ball_force == "smooth":
         damping = damping * smooth_ramp(depth / bearing.damping_ramp)
-    force = bearing.stiffness * power(depth, bearing.exponent, cheap) + damping
+    force = bearing.stiffness * power(depth, bearing.exponent) + damping
     return jnp.where(touching, jnp.maximum(force, 0.0), 0.0)
 
 
