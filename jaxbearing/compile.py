@@ -44,8 +44,9 @@ whose equality between sweep members and single runs is then untested.
 
 A third setting of the process concerns its memory, not XLA: XLA:CPU allocates the buffers of
 each call afresh, and glibc's malloc hands blocks above its mmap threshold (at most 32 MB) to
-the system when they are freed, so a simulation with many output times (200 001: about 125 MB
-of buffers) takes a page fault for every page of them on every call (README gives the cost).
+the system when they are freed, so a simulation with many output times (whose buffers exceed
+that threshold) takes a page fault for every page of them on every call (README gives the sizes
+and the cost).
 `enable_memory_reuse` raises glibc's thresholds (``mallopt``), so that freed memory stays in the
 process for the next call; its resident memory then stays at its largest so far. It can be
 called at any time (it applies to the allocations after it), and does nothing where the C

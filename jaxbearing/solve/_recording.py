@@ -34,9 +34,9 @@ def _accelerations(model, t, q, qd, approach_speeds, engaged, elimination="dense
     """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
     diffrax traces the vector field several times. XLA inlines the call, so the compiled
     program is unchanged. ``elimination``: ``"dense"``, or ``"entries"``, the entry-by-entry
-    elimination with the cheaper forms of `_forms.output_forms` (the outputs' evaluation, and the
-    solver's where `compile.entry_elimination`); set here, since jit's cache of traces does not
-    see the context in which it was called."""
+    elimination with the cheaper cos and sin of `_forms.output_forms` (the outputs' evaluation,
+    and the solver's where `compile.entry_elimination`); set here, since jit's cache of traces
+    does not see the context in which it was called."""
     if elimination == "dense":
         return model.accelerations(t, q, qd, approach_speeds, engaged)
     with output_forms():
