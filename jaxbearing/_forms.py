@@ -1,16 +1,15 @@
 """Two forms of cos and sin: the one the solver evaluates by default, and a faster one for the
-batched evaluation of the outputs and for the solver with the entry elimination; and d^1.5.
+batched evaluation of the outputs, the one loop, and the solver with FMA off; and d^1.5.
 
 XLA:CPU fuses an elementwise producer into every kernel that consumes it unless that would read
 more memory, so in a batched evaluation of the forces cos and sin of each body angle were
 computed again in dozens of kernels. Within `output_forms`, `cos_sin` passes its values through
 an exact reduction, (x + x) / 2 as a sum over two copies (a reduction is never repeated).
 `simulate` evaluates its output times so. The solver's own evaluations keep the plain form by
-default: with XLA:CPU's fused multiply–adds on, the kernels XLA builds from it round in the last
+default: with XLA:CPU's fused multiply–adds on, the kernels XLA builds around it round in the last
 bit differently in a single run and in a batch, and a sweep member must equal its single run bit
 for bit (tests/test_sweep.py). With them off (`jaxbearing.compile.enable_entry_elimination`)
-they round alike, and the solver's accelerations use this form with the entry-by-entry
-elimination.
+they round alike, and the solver's accelerations use this form.
 
 `power` writes d^1.5 (the Hertzian exponent of Eqs. 9 and 23) as d sqrt(d) everywhere: XLA
 evaluates a general power as an exponential and a logarithm.

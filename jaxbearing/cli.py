@@ -18,9 +18,10 @@ soon as that case is done, each atomically, so an interrupted run keeps what it 
 The console shows one progress bar per case (stderr), the summaries and Table 5; a warning says
 when --t1 stops before the slider first strikes the target (both cases are then the same).
 
-The command's process turns on both faster XLA:CPU settings of `jaxbearing.compile`, the loops
-compiled whole and the entry elimination (``"elimination"`` in summary.json says which one ran:
-"dense" where JAX's backends had started before, as when `main` is called from Python).
+The command's process turns on the faster XLA:CPU settings of `jaxbearing.compile`, the loops
+compiled whole and FMA off, under which the solver evaluates cos and sin in a cheaper form
+(``"fma_off"`` in summary.json says whether that took effect: false where JAX's backends had
+started before, as when `main` is called from Python).
 
 ``--config FILE`` reads parameter overrides of the case from a TOML file, in SI units, e.g.
 
@@ -210,7 +211,7 @@ def _summary(args, ts, stride, source, overrides, models) -> dict:
         "csv_columns": None,
         "rtol": args.rtol,
         "atol": args.atol,
-        "elimination": "entries" if entry_elimination() else "dense",  # jaxbearing.compile
+        "fma_off": entry_elimination(),  # jaxbearing.compile
         "peak_window_from_s": report.PEAK_FROM,
         "figure_window_s": list(cases.FIGURE_WINDOW),
         "config_file": source,

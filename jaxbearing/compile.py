@@ -34,13 +34,14 @@ and run kernel by kernel XLA:CPU splits each over the cores, which a loop compil
 
 A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
-before it is added wherever XLA computes it. With it the solver integrates Eq. 36 with the
-entry-by-entry elimination and the cheaper form of cos and sin that the outputs use
-(`entry_elimination`, `jaxbearing._forms`), and a vmapped sweep member still equals its single
-run to the last bit (`jaxbearing.multibody.mechanism` explains why that needs FMA off). It too
-goes through ``XLA_FLAGS`` and affects every XLA:CPU computation of the process. Other backends
-ignore the flag; a simulation compiled for one in such a process still uses the entry form,
-whose equality between sweep members and single runs is then untested.
+before it is added wherever XLA computes it. With it the solver also evaluates cos and sin in
+the cheaper form that the outputs use (`entry_elimination`, `jaxbearing._forms`), and a vmapped
+sweep member still equals its single run to the last bit (`jaxbearing._forms` explains why that
+needs FMA off). The solver solves Eq. 36 entry by entry in every process; the setting is named
+for when it also switched that on. It too goes through ``XLA_FLAGS`` and affects every XLA:CPU
+computation of the process. Other backends ignore the flag; a simulation compiled for one in
+such a process still uses the cheaper form, whose equality between sweep members and single
+runs is then untested.
 
 A third setting of the process concerns its memory, not XLA: XLA:CPU allocates the buffers of
 each call afresh, and glibc's malloc hands blocks above its mmap threshold (at most 32 MB) to
@@ -129,9 +130,10 @@ def enable_loop_kernels() -> bool:
 
 def enable_entry_elimination() -> bool:
     """Turn XLA:CPU's fused multiply–adds off for the process (`NO_FMA_FLAG`), so that the solver
-    integrates with the entry-by-entry elimination of Eq. 36 (module docstring). Returns whether
-    the setting is in effect, like `enable_loop_kernels`; call it before the first computation.
-    Results agree with and without it to the solver's tolerance, not to the last bit."""
+    also evaluates cos and sin in the cheaper form of the outputs (module docstring). Returns
+    whether the setting is in effect, like `enable_loop_kernels`; call it before the first
+    computation. Results agree with and without it to the solver's tolerance, not to the last
+    bit."""
     return _append_flag(NO_FMA_FLAG) and entry_elimination()
 
 
@@ -177,9 +179,9 @@ def kernel_by_kernel(index):
 
 @functools.cache
 def entry_elimination() -> bool:
-    """Whether the solver uses the entry-by-entry elimination: whether ``XLA_FLAGS`` limits
-    XLA:CPU to an instruction set without FMA (`NO_FMA_ISAS`), read once a process, at the first
-    simulation traced (after JAX has read ``XLA_FLAGS``)."""
+    """Whether the solver evaluates cos and sin in the cheaper form of the outputs: whether
+    ``XLA_FLAGS`` limits XLA:CPU to an instruction set without FMA (`NO_FMA_ISAS`), read once a
+    process, at the first simulation traced (after JAX has read ``XLA_FLAGS``)."""
     return fma_off(os.environ.get("XLA_FLAGS", ""))
 
 

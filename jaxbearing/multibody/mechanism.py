@@ -9,20 +9,22 @@ supplies Phi, Phi_t, gamma = -(Phi_q q_dot)_q q_dot - 2 Phi_qt q_dot - Phi_tt an
 entries of Phi_q in closed form.
 
 Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
-- dense (`solve_spd`): matrix products and an unrolled Gauss–Jordan elimination. The solver
-  integrates with it by default: XLA:CPU rounds it alike in a single run and in a vmapped sweep
-  member, so a member equals the same point run alone to the last bit (tests/test_sweep.py).
+- dense (`solve_spd`, the default of `accelerations`): matrix products and an unrolled
+  Gauss–Jordan elimination, a reference that needs no sparsity.
 - sparse (`solve_spd_entries`, ``accelerations(..., sparse=True)``): S, its LDL^T factors and
   Phi_q^T lambda written out entry by entry on the sparsity of Phi_q, which the joints' types and
   bodies fix. For the paper's slider–crank it is a few hundred scalar operations, much cheaper
-  than the dense form; `simulate` evaluates the outputs with it. With XLA:CPU's defaults a
-  single and a vmapped program round it differently: a product of two numbers that a batch
-  shares is computed once for the batch and rounded, where the single run fuses it with the
-  next sum into one fused multiply–add, and a division by a shared number becomes a product
-  with its reciprocal. In the solver that difference grows into another step sequence. With
-  fused multiply–adds off for the process (`jaxbearing.compile.enable_entry_elimination`) and
-  every input of the elimination made a value of the state (`_sparse_accelerations`), the
-  programs round it alike, and the solver integrates with it.
+  than the dense form; the solver and the outputs use it.
+  A sweep member must equal the same point run alone to the last bit (tests/test_sweep.py,
+  tests/test_pauses.py), and XLA would round scalar code differently in a single and a vmapped
+  program where a product of two numbers that a batch shares is computed once for the batch
+  (and rounded) while the single run fuses it with the next sum into one fused multiply–add,
+  or where a division by a shared number becomes a product with its reciprocal.
+  `_sparse_accelerations` leaves neither pattern a chance: every input is a value of the state
+  and every division a product with a reciprocal. With the plain cos and sin the two programs
+  then round it alike, with XLA:CPU's fused multiply–adds on or off (what those tests check:
+  XLA promises no such thing); with the cheaper cos and sin of the outputs (`jaxbearing._forms`)
+  they do so only with them off (`jaxbearing.compile.enable_entry_elimination`).
 """
 
 from __future__ import annotations
@@ -257,9 +259,8 @@ class Mechanism(eqx.Module):
         Every input of the elimination (M^-1, Q_A, the entries of Phi_q, the right-hand side) is
         multiplied by ``one`` = 1 + 0 q_1, exactly 1 but a value of the state: no program can
         then fold a product of two parameters at compile time (a model closed over by a jit) or
-        compute it once for a batch (a vmapped sweep) while another computes it per call, and
-        with XLA:CPU's fused multiply–adds off the elimination rounds alike in all of them
-        (module docstring)."""
+        compute it once for a batch (a vmapped sweep) while another computes it per call, so
+        that the elimination rounds alike in all of them (module docstring)."""
         n = self.n_coordinates
         one = 1.0 + 0.0 * q[0]
         m_inv = [inverse_mass[c] * one for c in range(n)]

@@ -29,16 +29,16 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
-@functools.partial(jax.jit, static_argnames="elimination")
-def _accelerations(model, t, q, qd, approach_speeds, engaged, elimination="dense"):
-    """`Mechanism.accelerations` behind its own jit, so that it is traced once per solve:
-    diffrax traces the vector field several times. XLA inlines the call, so the compiled
-    program is unchanged. ``elimination``: ``"dense"``, or ``"entries"``, the entry-by-entry
-    elimination with the cheaper cos and sin of `_forms.output_forms` (the outputs' evaluation,
-    and the solver's where `compile.entry_elimination`); set here, since jit's cache of traces
-    does not see the context in which it was called."""
-    if elimination == "dense":
-        return model.accelerations(t, q, qd, approach_speeds, engaged)
+@functools.partial(jax.jit, static_argnames="cheap")
+def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False):
+    """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
+    it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
+    call, so the compiled program is unchanged. ``cheap``: with the cheaper cos and sin of
+    `_forms.output_forms` (the outputs' evaluation, the one loop, and the solver's where
+    `compile.entry_elimination`); set here, since jit's cache of traces does not see the
+    context in which it was called."""
+    if not cheap:
+        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
     with output_forms():
         return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 

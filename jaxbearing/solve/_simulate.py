@@ -424,12 +424,12 @@ def _simulate(
           "ts must be finite, increasing and lie within [t0, t1]", ts)],
     )
     n = model.n_coordinates
-    elimination = "entries" if entry_elimination() else "dense"
+    cheap = entry_elimination()
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, elimination)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, cheap)])
 
     setup = _Setup(
         model=model,
@@ -517,7 +517,7 @@ def _outputs(
     def at(t, y, a, e):
         # outputs at one time
         q, qd = y[:n], y[n:]
-        qdd = _accelerations(model, t, q, qd, a, e, "entries")
+        qdd = _accelerations(model, t, q, qd, a, e, cheap=True)
         drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
         out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
         out.update(_forces(model, t, q, qd, a, e))
