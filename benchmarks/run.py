@@ -12,7 +12,7 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   the smooth ball force (the model for gradients); every CPU item runs with
   `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), one Tsit5 row
   without it (``--plain-loops``), for the gain, and one with `jaxbearing.enable_entry_elimination`
-  as well (``--entries``: FMA off, Eq. 36 solved entry by entry); every CPU item also with
+  as well (``--fma-off``: FMA off, cos and sin in the outputs' cheaper form); every CPU item also with
   `jaxbearing.enable_memory_reuse` (freed memory kept in the process, as the ``jaxbearing``
   command does);
 - the cost of 200 001 output times against 2001, also without `enable_memory_reuse`
@@ -24,7 +24,7 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   with exact contact events) for LSODA, BDF, Radau and RK45; the fastest one that stays accurate
   sets the speed ratio;
 - sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
-  restitution on 1 and on 2 CPU devices, on 2 with the entry elimination, and on 2 with
+  restitution on 1 and on 2 CPU devices, on 2 with FMA off, and on 2 with
   ``solve="one_loop"`` (`SWEEP_ROWS`), with the sweep's default output times (the standard
   metrics need none but [t0, t1]);
 - peak memory (maximum resident set size) of each measurement.
@@ -81,14 +81,14 @@ SOLVERS = (  # (row label, solver name, ball force, process setting: see `SETTIN
     ("Kvaerno5", "kvaerno5", "paper", "loop_kernels"),
     ("Kvaerno5, smooth force", "kvaerno5", "smooth", "loop_kernels"),
     ("Tsit5, plain loops", "default", "paper", "plain_loops"),
-    ("Tsit5, entry elimination", "default", "paper", "entries"),
+    ("Tsit5, FMA off", "default", "paper", "fma_off"),
 )
 SETTINGS = {  # a child's process-wide XLA:CPU settings -> the child's command-line options
     "loop_kernels": {},  # jb.enable_loop_kernels (every CPU item's default)
     "plain_loops": {"plain_loops": True},  # without it
-    "entries": {"entries": True},  # with it and jb.enable_entry_elimination
+    "fma_off": {"fma_off": True},  # with it and jb.enable_entry_elimination
 }
-ENTRIES_LABEL = SOLVERS[-1][0]
+FMA_OFF_LABEL = SOLVERS[-1][0]
 SCIPY_METHODS = ("LSODA", "BDF", "Radau", "RK45")
 SCIPY_MAX_WALL = 300.0  # [s] cap per SciPy run
 GRADIENT_NAMES = ("bearing.clearance", "impact.restitution", "bearing.stiffness")
@@ -98,7 +98,7 @@ SWEEP_RESTITUTIONS = (0.5, 0.95)
 SWEEP_CORNER = {"bearing.clearance": SWEEP_CLEARANCES[1], "impact.restitution": SWEEP_RESTITUTIONS[1]}
 SWEEP_CHECKED = ("peak_ball_load", "peak_bearing_force")  # metrics checked at the grid's corner
 SWEEP_ROWS = (  # CPU sweeps: (devices, process setting, solve="one_loop")
-    (1, "loop_kernels", False), (2, "loop_kernels", False), (2, "entries", False), (2, "loop_kernels", True),
+    (1, "loop_kernels", False), (2, "loop_kernels", False), (2, "fma_off", False), (2, "loop_kernels", True),
 )
 GPU_BATCHES = (256, 1024, 4096, 16_384, 65_536)  # sweep points in one chunk on one GPU
 GPU_SWEEP_TS = 0  # output times of a GPU sweep member: the sweep's default ([t0, t1] for exact metrics)
@@ -469,9 +469,9 @@ def _singles(args, settings, results):
 
 
 def _solver_rows(n):
-    """The first ``n`` rows of `SOLVERS`, and the entry elimination's row in any case."""
+    """The first ``n`` rows of `SOLVERS`, and the FMA-off row in any case."""
     rows = SOLVERS[:n]
-    return rows if rows[-1][0] == ENTRIES_LABEL else rows + SOLVERS[-1:]
+    return rows if rows[-1][0] == FMA_OFF_LABEL else rows + SOLVERS[-1:]
 
 
 def _outputs_row(settings, results):
@@ -534,7 +534,7 @@ def _sweep_rows(args, settings, results):
         row = _child("sweep", settings, devices=devices, sweep_n=args.sweep_n, chunk_size=args.chunk_size,
                      one_loop=one_loop, **SETTINGS[setting])
         results["sweep"].append(row)
-        kind = ", entry elimination" if row["entries"] else ""
+        kind = ", FMA off" if row["fma_off"] else ""
         kind += ', solve="one_loop"' if one_loop else ""
         print(
             f"  {devices} device(s){kind}: {row['points']} points in {row['wall_s']:.2f} s = {row['throughput']:.2f} "
@@ -628,10 +628,10 @@ def _targets(r) -> dict:
     fastest = min(accurate_scipy, key=lambda row: row["wall_s"]) if accurate_scipy else None
     two = [row for row in r.get("sweep", []) if row["devices"] == 2]
     segments = [row for row in two if row.get("solve", "segments") == "segments"]
-    sweep2 = next((row for row in segments if not row.get("entries")), None)
-    sweep2_entries = next((row for row in segments if row.get("entries")), None)
+    sweep2 = next((row for row in segments if not row.get("fma_off")), None)
+    sweep2_fma_off = next((row for row in segments if row.get("fma_off")), None)
     sweep2_one_loop = next((row for row in two if row.get("solve") == "one_loop"), None)
-    entries = next((row for row in r.get("single", []) if row["label"] == ENTRIES_LABEL), None)
+    fma_off = next((row for row in r.get("single", []) if row["label"] == FMA_OFF_LABEL), None)
     if kvaerno:
         targets["Kvaerno5 <= 2.5 s"] = (kvaerno["wall_s"], kvaerno["wall_s"] <= 2.5)
     if r.get("outputs"):
@@ -639,14 +639,14 @@ def _targets(r) -> dict:
     if fastest and default:
         ratio = fastest["wall_s"] / default["wall_s"]
         targets[f">= 30x faster than SciPy ({fastest['method']})"] = (ratio, ratio >= 30.0)
-    if fastest and entries:
-        ratio = fastest["wall_s"] / entries["wall_s"]
-        targets[f">= 30x faster than SciPy ({fastest['method']}), entry elim."] = (ratio, ratio >= 30.0)
+    if fastest and fma_off:
+        ratio = fastest["wall_s"] / fma_off["wall_s"]
+        targets[f">= 30x faster than SciPy ({fastest['method']}), FMA off"] = (ratio, ratio >= 30.0)
     if sweep2:
         targets[">= 20 simulations/s on 2 CPU devices"] = (sweep2["throughput"], sweep2["throughput"] >= 20.0)
-    if sweep2_entries:
-        rate = sweep2_entries["throughput"]
-        targets[">= 20 simulations/s on 2 CPU devices, entry elim."] = (rate, rate >= 20.0)
+    if sweep2_fma_off:
+        rate = sweep2_fma_off["throughput"]
+        targets[">= 20 simulations/s on 2 CPU devices, FMA off"] = (rate, rate >= 20.0)
     if sweep2_one_loop:
         rate = sweep2_one_loop["throughput"]
         targets['>= 20 simulations/s on 2 CPU devices, solve="one_loop"'] = (rate, rate >= 20.0)
@@ -686,8 +686,8 @@ def main(argv=None):
     parser.add_argument("--reference-file", help="reference runs: reuse this npz if it exists, else write it")
     parser.add_argument("--plain-loops", action="store_true",
                         help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
-    parser.add_argument("--entries", action="store_true",
-                        help="with jb.enable_entry_elimination (FMA off, Eq. 36 solved entry by entry)")
+    parser.add_argument("--fma-off", action="store_true",
+                        help="with jb.enable_entry_elimination (FMA off, cos and sin in a cheaper form)")
     parser.add_argument("--no-memory-reuse", action="store_true",
                         help="without jb.enable_memory_reuse (freed memory returns to the system)")
     args = parser.parse_args(argv)
@@ -696,7 +696,7 @@ def main(argv=None):
             from jaxbearing.compile import enable_loop_kernels
 
             enable_loop_kernels()
-        if args.entries:
+        if args.fma_off:
             from jaxbearing.compile import enable_entry_elimination
 
             assert enable_entry_elimination()
@@ -706,7 +706,7 @@ def main(argv=None):
             enable_memory_reuse()
         row = ITEMS[args.item](args)
         row["loop_kernels"] = not args.plain_loops
-        row["entries"] = args.entries
+        row["fma_off"] = args.fma_off
         row["memory_reuse"] = not args.no_memory_reuse
         row["peak_memory_MiB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(json.dumps(row))
