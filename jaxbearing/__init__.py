@@ -9,8 +9,9 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 On the CPU, call `enable_loop_kernels()` before the first computation: the solver's loops then
 run as whole functions, much faster; `enable_entry_elimination()` as well (FMA off for the
-process), and the solver evaluates cos and sin in a cheaper form, faster again; `enable_memory_reuse()` keeps freed memory in the process,
-which saves runs with many output times their page faults (`jaxbearing.compile`).
+process), and the solver evaluates cos and sin in a cheaper form, faster again;
+`enable_memory_reuse()` keeps freed memory in the process, which saves runs with many output
+times their page faults (`jaxbearing.compile`).
 """
 
 from . import cases, laws, life, metrics, multibody, paths

@@ -8,6 +8,7 @@ those points, where the step may rise above the peaks so far (`jaxbearing.soluti
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 from typing import NamedTuple
@@ -37,9 +38,7 @@ def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False):
     `_forms.output_forms` (the outputs' evaluation, the one loop, and the solver's where
     `compile.entry_elimination`); set here, since jit's cache of traces does not see the
     context in which it was called."""
-    if not cheap:
-        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
-    with output_forms():
+    with output_forms() if cheap else contextlib.nullcontext():
         return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 
