@@ -144,14 +144,16 @@ class BearingJoint(AbstractForceElement):
         (row 1): point k at 2 pi k / n_points in its ring body's frame, loaded as a ball placed
         there would be (`laws.bearing.ring_point_loads`)."""
         e, v = self.eccentricity(q, qd)
-        return jnp.stack(
-            [
-                bearing_law.ring_point_loads(
-                    e, v, _angle_and_speed(q, qd, body)[0], n_points, self.bearing
-                )
-                for body in (self.inner_body, self.outer_body)
-            ]
-        )
+        rows = [
+            bearing_law.ring_point_loads(
+                e, v, _angle_and_speed(q, qd, body)[0], n_points, self.bearing
+            )
+            for body in (self.inner_body, self.outer_body)
+        ]
+        # joined end to end, not stacked: vmapped over a step's points, a stack puts the rings'
+        # axis before the points' and XLA:CPU transposes the loads in every step's fatigue
+        # integrands (`_recording`; docs/performance.md)
+        return jnp.concatenate(rows).reshape(2, n_points)
 
     def force(self, t, q, qd, q0, qd0, engaged=None):
         """Resultant on the outer-race body [N] (Eq. 28)."""
