@@ -1,15 +1,25 @@
-"""Two forms of cos and sin: the one the solver evaluates by default, and a faster one for the
-batched evaluation of the outputs, the one loop, and the solver with FMA off; and d^1.5.
+"""Two forms of cos and sin, each computed once per angle and evaluation: one for the solver, one
+for the batched evaluation of the outputs, the one loop, and the solver with FMA off; and d^1.5.
 
 XLA:CPU fuses an elementwise producer into every kernel that consumes it unless that would read
-more memory, so in a batched evaluation of the forces cos and sin of each body angle were
-computed again in dozens of kernels. Within `output_forms`, `cos_sin` passes its values through
-an exact reduction, (x + x) / 2 as a sum over two copies (a reduction is never repeated).
-`simulate` evaluates its output times so. The solver's own evaluations keep the plain form by
-default: with XLA:CPU's fused multiply–adds on, the kernels XLA builds around it round in the last
-bit differently in a single run and in a batch, and a sweep member must equal its single run bit
-for bit (tests/test_sweep.py). With them off (`jaxbearing.compile.enable_entry_elimination`)
-they round alike, and the solver's accelerations use this form.
+more memory, so cos and sin of each body angle, read by many kernels of a right-hand side, would
+be computed again in each (`docs/performance.md` counts them). Two ways keep them to one
+evaluation per angle:
+
+- within `output_forms`, `cos_sin` passes its values through an exact reduction, (x + x) / 2 as
+  a sum over two copies (a reduction is never repeated). `simulate` evaluates its output times
+  so. With XLA:CPU's fused multiply–adds on, the kernels that XLA builds around the reduction
+  round in the last bit differently in a single run and in a batch, and a sweep member must
+  equal its single run bit for bit (tests/test_sweep.py); with them off
+  (`jaxbearing.compile.enable_entry_elimination`) they round alike, and the solver uses this
+  form too;
+- otherwise (the solver's evaluations, the steps' records, the events), on a CPU, `cos_sin`
+  returns them through a `jax.lax.cond` whose predicate (any of the angles finite, across a
+  vmapped batch) holds wherever cos and sin are numbers: their readers read the conditional's
+  results, so XLA computes cos and sin once, for the conditional, and cannot repeat them in the
+  readers' kernels, which otherwise stay as they were; the results are those of the plain form to
+  the last bit, and single runs and batches round alike. On other platforms
+  (`jax.lax.platform_dependent`) they are plain: a conditional there waits for the host.
 
 `power` writes d^1.5 (the Hertzian exponent of Eqs. 9 and 23) as d sqrt(d) everywhere: XLA
 evaluates a general power as an exponential and a logarithm.
@@ -20,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
@@ -37,13 +48,26 @@ def output_forms():
 
 
 def cos_sin(angle) -> tuple[jax.Array, jax.Array]:
-    """(cos, sin) of ``angle`` [rad]; within `output_forms`, computed once per evaluation."""
-    c, s = jnp.cos(angle), jnp.sin(angle)
+    """(cos, sin) of ``angle`` [rad], computed once per evaluation (module docstring)."""
     if not _OUTPUTS.get():
-        return c, s
+        return jax.lax.platform_dependent(angle, cpu=_cos_sin_held, default=_cos_sin)
+    c, s = _cos_sin(angle)
     pair = jnp.stack([c, s], axis=-1)
     pair = jnp.sum(jnp.stack([pair, pair], axis=-1), axis=-1) * 0.5
     return pair[..., 0], pair[..., 1]
+
+
+def _cos_sin(angle):
+    return jnp.cos(angle), jnp.sin(angle)
+
+
+def _cos_sin_held(angle):
+    """`_cos_sin` returned from a conditional (module docstring). Its other branch, taken where
+    every angle of a batch is infinite or NaN, returns them swapped: both are NaN there, so the
+    values are the same, and branches that differ keep XLA from removing the conditional (a
+    branch of constant NaN instead changed how XLA fuses the readers)."""
+    c, s = _cos_sin(angle)
+    return jax.lax.cond(eqxi.unvmap_any(jnp.isfinite(angle)), lambda: (c, s), lambda: (s, c))
 
 
 def power(depth, exponent: float) -> jax.Array:
