@@ -12,7 +12,7 @@ What it measures, on the paper's case with impact (0-0.2 s, 2001 output times):
   the smooth ball force (the model for gradients); every CPU item runs with
   `jaxbearing.enable_loop_kernels` (XLA:CPU compiles each loop whole), one Tsit5 row
   without it (``--plain-loops``), for the gain, and one with `jaxbearing.enable_entry_elimination`
-  as well (``--fma-off``: FMA off, cos and sin in the outputs' cheaper form); every CPU item also with
+  as well (``--fma-off``: XLA:CPU without fused multiply–adds); every CPU item also with
   `jaxbearing.enable_memory_reuse` (freed memory kept in the process, as the ``jaxbearing``
   command does);
 - the cost of 200 001 output times against 2001, also without `enable_memory_reuse`
@@ -687,7 +687,7 @@ def main(argv=None):
     parser.add_argument("--plain-loops", action="store_true",
                         help="without jb.enable_loop_kernels (XLA:CPU's loops as kernel sequences)")
     parser.add_argument("--fma-off", action="store_true",
-                        help="with jb.enable_entry_elimination (FMA off, cos and sin in a cheaper form)")
+                        help="with jb.enable_entry_elimination (XLA:CPU without fused multiply-adds)")
     parser.add_argument("--no-memory-reuse", action="store_true",
                         help="without jb.enable_memory_reuse (freed memory returns to the system)")
     args = parser.parse_args(argv)

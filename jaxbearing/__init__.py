@@ -8,10 +8,10 @@ assembly and equations of motion (`multibody`) -> diffrax solve (`solve`) -> out
 jaxbearing computes in float64 and does not switch JAX's global mode for you: call
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 On the CPU, call `enable_loop_kernels()` before the first computation: the solver's loops then
-run as whole functions, much faster; `enable_entry_elimination()` as well (FMA off for the
-process), and the solver evaluates cos and sin in a cheaper form, faster again;
-`enable_memory_reuse()` keeps freed memory in the process, which saves runs with many output
-times their page faults (`jaxbearing.compile`).
+run as whole functions, much faster; `enable_memory_reuse()` keeps freed memory in the
+process, which saves runs with many output times their page faults (`jaxbearing.compile`).
+`enable_entry_elimination()` turns XLA:CPU's fused multiply–adds off for the process; it no
+longer makes a run faster.
 """
 
 from . import cases, laws, life, metrics, multibody, paths

@@ -1,5 +1,5 @@
 """Two forms of cos and sin, each computed once per angle and evaluation: one for the solver, one
-for the batched evaluation of the outputs, the one loop, and the solver with FMA off; and d^1.5.
+for the batched evaluation of the outputs and the one loop; and d^1.5.
 
 XLA:CPU fuses an elementwise producer into every kernel that consumes it unless that would read
 more memory, so cos and sin of each body angle, read by many kernels of a right-hand side, would
@@ -8,11 +8,10 @@ evaluation per angle:
 
 - within `output_forms`, `cos_sin` passes its values through an exact reduction, (x + x) / 2 as
   a sum over two copies (a reduction is never repeated). `simulate` evaluates its output times
-  so. With XLA:CPU's fused multiply–adds on, the kernels that XLA builds around the reduction
-  round in the last bit differently in a single run and in a batch, and a sweep member must
-  equal its single run bit for bit (tests/test_sweep.py); with them off
-  (`jaxbearing.compile.enable_entry_elimination`) they round alike, and the solver uses this
-  form too;
+  so, and `simulate_one_loop` its right-hand side. With XLA:CPU's fused multiply–adds on, the kernels that
+  XLA builds around the reduction round in the last bit differently in a single run and in a
+  batch, so the solver, whose sweep members must equal their single runs bit for bit
+  (tests/test_sweep.py), does not use it;
 - otherwise (the solver's evaluations, the steps' records, the events), on a CPU, `cos_sin`
   returns them through a `jax.lax.cond` whose predicate (any of the angles finite, across a
   vmapped batch) holds wherever cos and sin are numbers: their readers read the conditional's

@@ -18,10 +18,11 @@ soon as that case is done, each atomically, so an interrupted run keeps what it 
 The console shows one progress bar per case (stderr), the summaries and Table 5; a warning says
 when --t1 stops before the slider first strikes the target (both cases are then the same).
 
-The command's process turns on the faster XLA:CPU settings of `jaxbearing.compile`, the loops
-compiled whole and FMA off, under which the solver evaluates cos and sin in a cheaper form
-(``"fma_off"`` in summary.json says whether that took effect: false where JAX's backends had
-started before, as when `main` is called from Python).
+The command's process turns on the faster XLA:CPU setting of `jaxbearing.compile`, the loops
+compiled whole, and keeps freed memory for the next case (`enable_memory_reuse`).
+``"fma_off"`` in summary.json says whether the process runs XLA:CPU without fused
+multiply–adds (`enable_entry_elimination`, which the command no longer turns on: it made runs
+slower once the solver computed each cos and sin once with FMA on as well).
 
 ``--config FILE`` reads parameter overrides of the case from a TOML file, in SI units, e.g.
 
@@ -130,10 +131,9 @@ def _count(low: int):
 
 def run_xu2014(args) -> int:
     """The ``xu2014`` command: check the settings, then run, report and write each case."""
-    from .compile import enable_entry_elimination, enable_loop_kernels, enable_memory_reuse
+    from .compile import enable_loop_kernels, enable_memory_reuse
 
     enable_loop_kernels()  # this process is ours: the faster XLA:CPU settings (jaxbearing.compile)
-    enable_entry_elimination()
     enable_memory_reuse()  # its 200 001 output times a case: no page faults on fresh buffers
     import jax
 

@@ -34,14 +34,13 @@ and run kernel by kernel XLA:CPU splits each over the cores, which a loop compil
 
 A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
-before it is added wherever XLA computes it. With it the solver also evaluates cos and sin in
-the cheaper form that the outputs use (`entry_elimination`, `jaxbearing._forms`), and a vmapped
-sweep member still equals its single run to the last bit (`jaxbearing._forms` explains why that
-needs FMA off). The solver solves Eq. 36 entry by entry in every process; the setting is named
-for when it also switched that on. It too goes through ``XLA_FLAGS`` and affects every XLA:CPU
-computation of the process. Other backends ignore the flag; a simulation compiled for one in
-such a process still uses the cheaper form, whose equality between sweep members and single
-runs is then untested.
+before it is added wherever XLA computes it. It no longer makes a run faster (README gives the
+figures: slower, since the solver evaluates each cos and sin once with FMA on as well,
+`jaxbearing._forms`); it is kept for a process that wants XLA:CPU without FMA, e.g. to compare
+results between CPUs with and without it. It is named for what it first switched on as well:
+the elimination of Eq. 36 entry by entry, which the solver uses in every process, and later
+the cheaper cos and sin. It too goes through ``XLA_FLAGS`` and affects every XLA:CPU
+computation of the process; other backends ignore the flag.
 
 A third setting of the process concerns its memory, not XLA: XLA:CPU allocates the buffers of
 each call afresh, and glibc's malloc hands blocks above its mmap threshold (at most 32 MB) to
@@ -129,11 +128,10 @@ def enable_loop_kernels() -> bool:
 
 
 def enable_entry_elimination() -> bool:
-    """Turn XLA:CPU's fused multiply–adds off for the process (`NO_FMA_FLAG`), so that the solver
-    also evaluates cos and sin in the cheaper form of the outputs (module docstring). Returns
-    whether the setting is in effect, like `enable_loop_kernels`; call it before the first
-    computation. Results agree with and without it to the solver's tolerance, not to the last
-    bit."""
+    """Turn XLA:CPU's fused multiply–adds off for the process (`NO_FMA_FLAG`; module docstring:
+    no longer faster). Returns whether the setting is in effect, like `enable_loop_kernels`;
+    call it before the first computation. Results agree with and without it to the solver's
+    tolerance, not to the last bit."""
     return _append_flag(NO_FMA_FLAG) and entry_elimination()
 
 
@@ -179,9 +177,9 @@ def kernel_by_kernel(index):
 
 @functools.cache
 def entry_elimination() -> bool:
-    """Whether the solver evaluates cos and sin in the cheaper form of the outputs: whether
-    ``XLA_FLAGS`` limits XLA:CPU to an instruction set without FMA (`NO_FMA_ISAS`), read once a
-    process, at the first simulation traced (after JAX has read ``XLA_FLAGS``)."""
+    """Whether `enable_entry_elimination` is in effect: whether ``XLA_FLAGS`` limits XLA:CPU to
+    an instruction set without FMA (`NO_FMA_ISAS`), read once a process, at the first call
+    (after JAX has read ``XLA_FLAGS``)."""
     return fma_off(os.environ.get("XLA_FLAGS", ""))
 
 

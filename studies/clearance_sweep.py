@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxbearing.compile import enable_entry_elimination, enable_loop_kernels
+from jaxbearing.compile import enable_loop_kernels
 
 CLEARANCES_UM = [5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 80.0]  # the paper's 40 µm among them
 ANNOTATED = 16  # grids up to this many values a side get their numbers printed and on the map
@@ -42,10 +42,9 @@ PLOTTED = {
 
 
 def main(argv=None) -> int:
-    # before the first computation; this process is ours: the faster XLA:CPU settings (loops
-    # compiled whole, Eq. 36 solved entry by entry with FMA off: jaxbearing.compile)
+    # before the first computation; this process is ours: the faster XLA:CPU setting (loops
+    # compiled whole: jaxbearing.compile)
     enable_loop_kernels()
-    enable_entry_elimination()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="2 x 2 grid, t1 = 0.12 s")
     parser.add_argument("--out", default=None, help="output folder (default results/clearance_sweep[_quick])")

@@ -32,7 +32,7 @@ import optax  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
 from jaxbearing.cases import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
-from jaxbearing.compile import enable_entry_elimination, enable_loop_kernels  # noqa: E402
+from jaxbearing.compile import enable_loop_kernels  # noqa: E402
 
 GROOVES = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
 
@@ -47,10 +47,9 @@ def log_life(model, t1, ts, **kw):
 
 
 def main(argv=None):
-    # before the first computation; this process is ours: the faster XLA:CPU settings (loops
-    # compiled whole, Eq. 36 solved entry by entry with FMA off: jaxbearing.compile)
+    # before the first computation; this process is ours: the faster XLA:CPU setting (loops
+    # compiled whole: jaxbearing.compile)
     enable_loop_kernels()
-    enable_entry_elimination()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 clearances, 0.12 s, 2 steps (tests)")
     parser.add_argument("--out", default="results/life_clearance")

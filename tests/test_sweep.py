@@ -545,11 +545,10 @@ def test_four_devices_give_the_same_numbers(grid_result, four_devices):
 
 @pytest.mark.slow
 def test_entry_elimination_keeps_members_equal_to_single_runs(grid_result):
-    """With fused multiply–adds off (`jb.enable_entry_elimination`) the solver evaluates cos and
-    sin in the outputs' cheaper form, and a member still equals its point run alone to the last
-    bits, on 2 devices; the metrics agree with those of the default process to the solver's
-    tolerance (another program rounds differently, and the step control turns that into other
-    steps: module docstring)."""
+    """With fused multiply–adds off (`jb.enable_entry_elimination`) a member still equals its
+    point run alone to the last bits, on 2 devices; the metrics agree with those of the default
+    process to the solver's tolerance (another program rounds differently, and the step control
+    turns that into other steps: module docstring)."""
     job = start_process(
         """
         import json

@@ -23,8 +23,8 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
   `_sparse_accelerations` leaves neither pattern a chance: every input is a value of the state
   and every division a product with a reciprocal. With the plain cos and sin the two programs
   then round it alike, with XLA:CPU's fused multiply–adds on or off (what those tests check:
-  XLA promises no such thing); with the cheaper cos and sin of the outputs (`jaxbearing._forms`)
-  they do so only with them off (`jaxbearing.compile.enable_entry_elimination`).
+  XLA promises no such thing), and so they do with the cos and sin that the solver computes once
+  per angle (`jaxbearing._forms`); with the outputs' form of them only with FMA off.
 """
 
 from __future__ import annotations

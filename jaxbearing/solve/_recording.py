@@ -34,10 +34,9 @@ INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False):
     """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
     it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
-    call, so the compiled program is unchanged. ``cheap``: with the cheaper cos and sin of
-    `_forms.output_forms` (the outputs' evaluation, the one loop, and the solver's where
-    `compile.entry_elimination`); set here, since jit's cache of traces does not see the
-    context in which it was called."""
+    call, so the compiled program is unchanged. ``cheap``: with the cos and sin of
+    `_forms.output_forms` (the outputs' evaluation and the one loop); set here, since jit's
+    cache of traces does not see the context in which it was called."""
     with output_forms() if cheap else contextlib.nullcontext():
         return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 

@@ -43,7 +43,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from .._forms import output_forms
-from ..compile import entry_elimination, jit, kernel_by_kernel, trace_state_clean
+from ..compile import jit, kernel_by_kernel, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -424,12 +424,11 @@ def _simulate(
           "ts must be finite, increasing and lie within [t0, t1]", ts)],
     )
     n = model.n_coordinates
-    cheap = entry_elimination()
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, cheap)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
 
     setup = _Setup(
         model=model,
