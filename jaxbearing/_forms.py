@@ -8,17 +8,19 @@ evaluation per angle:
 
 - within `output_forms`, `cos_sin` passes its values through an exact reduction, (x + x) / 2 as
   a sum over two copies (a reduction is never repeated). `simulate` evaluates its output times
-  so, and `simulate_one_loop` its right-hand side. With XLA:CPU's fused multiply–adds on, the kernels that
-  XLA builds around the reduction round in the last bit differently in a single run and in a
-  batch, so the solver, whose sweep members must equal their single runs bit for bit
-  (tests/test_sweep.py), does not use it;
-- otherwise (the solver's evaluations, the steps' records, the events), on a CPU, `cos_sin`
-  returns them through a `jax.lax.cond` whose predicate (any of the angles finite, across a
-  vmapped batch) holds wherever cos and sin are numbers: their readers read the conditional's
-  results, so XLA computes cos and sin once, for the conditional, and cannot repeat them in the
-  readers' kernels, which otherwise stay as they were; the results are those of the plain form to
-  the last bit, and single runs and batches round alike. On other platforms
-  (`jax.lax.platform_dependent`) they are plain: a conditional there waits for the host.
+  so, and `simulate_one_loop` its right-hand side. With XLA:CPU's fused multiply–adds on, the
+  kernels that XLA builds around the reduction round in the last bit differently in a single
+  run and in a batch, so the solver, whose sweep members must equal their single runs bit for
+  bit (tests/test_sweep.py), does not use it;
+- otherwise (the solver's evaluations, the steps' records, the events), on a CPU with its loops
+  compiled whole (`jaxbearing.compile.enable_loop_kernels`), `cos_sin` returns them through a
+  `jax.lax.cond` whose predicate (any of the angles finite, across a vmapped batch) holds
+  wherever cos and sin are numbers: their readers read the conditional's results, so XLA
+  computes cos and sin once, for the conditional, and cannot repeat them in the readers'
+  kernels, which otherwise stay as they were; the results are those of the plain form to the
+  last bit, and single runs and batches round alike. Elsewhere they are plain: with loops run
+  kernel by kernel each conditional is a call of its own, which cost more than it saved, and on
+  other platforms (`jax.lax.platform_dependent`) a conditional waits for the host.
 
 `power` writes d^1.5 (the Hertzian exponent of Eqs. 9 and 23) as d sqrt(d) everywhere: XLA
 evaluates a general power as an exponential and a logarithm.
@@ -32,6 +34,8 @@ import contextvars
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+
+from .compile import loop_kernels
 
 _OUTPUTS = contextvars.ContextVar("jaxbearing_output_forms", default=False)
 
@@ -49,6 +53,8 @@ def output_forms():
 def cos_sin(angle) -> tuple[jax.Array, jax.Array]:
     """(cos, sin) of ``angle`` [rad], computed once per evaluation (module docstring)."""
     if not _OUTPUTS.get():
+        if not loop_kernels():
+            return _cos_sin(angle)
         return jax.lax.platform_dependent(angle, cpu=_cos_sin_held, default=_cos_sin)
     c, s = _cos_sin(angle)
     pair = jnp.stack([c, s], axis=-1)

@@ -35,8 +35,8 @@ and run kernel by kernel XLA:CPU splits each over the cores, which a loop compil
 A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the AVX
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
 before it is added wherever XLA computes it. It no longer makes a run faster (README gives the
-figures: slower, since the solver evaluates each cos and sin once with FMA on as well,
-`jaxbearing._forms`); it is kept for a process that wants XLA:CPU without FMA, e.g. to compare
+figures: slower, since the solver evaluates each cos and sin once with FMA on as well, with
+loops compiled whole, `jaxbearing._forms`); it is kept for a process that wants XLA:CPU without FMA, e.g. to compare
 results between CPUs with and without it. It is named for what it first switched on as well:
 the elimination of Eq. 36 entry by entry, which the solver uses in every process, and later
 the cheaper cos and sin. It too goes through ``XLA_FLAGS`` and affects every XLA:CPU
@@ -173,6 +173,13 @@ def kernel_by_kernel(index):
     matrix = jnp.ones((1, 1)) + 0.0 * index  # depends on the trip, so it stays in the loop
     one = jax.lax.linalg.cholesky(matrix, symmetrize_input=False)[0, 0]
     return index + (one - 1.0).astype(jnp.asarray(index).dtype)
+
+
+@functools.cache
+def loop_kernels() -> bool:
+    """Whether ``XLA_FLAGS`` holds `LOOP_KERNELS_FLAG` (`enable_loop_kernels`), read once a
+    process, at the first call (after JAX has read ``XLA_FLAGS``)."""
+    return LOOP_KERNELS_FLAG in os.environ.get("XLA_FLAGS", "").split()
 
 
 @functools.cache

@@ -53,6 +53,34 @@ def test_vmapped_members_equal_single_runs_to_the_last_bit(segment_steps):
             np.testing.assert_array_equal(b[i], a)
 
 
+def test_cos_and_sin_held_change_no_bit(monkeypatch):
+    """The solver's cos and sin returned through a conditional (`jaxbearing._forms`, taken with
+    loops compiled whole, which this suite runs without: forced here) give a run the plain
+    form's numbers to the last bit, and vmapped members their single runs'."""
+    from jaxbearing import _forms
+
+    clearances = jnp.array([20e-6, 80e-6])
+
+    def one(clearance):
+        model = jb.paths.replace(_model(), {"bearing.clearance": clearance})
+        sol = jb.simulate(model, T1, TS, segment_steps=8, throw=False)
+        return sol.q, sol.ball_loads, jb.metrics.peak_ball_load(sol), sol.num_steps
+
+    def runs(held: bool):
+        monkeypatch.setattr(_forms, "loop_kernels", lambda: held)
+        jax.clear_caches()  # trace again, in this form
+        batch = jax.jit(jax.vmap(one))(clearances)
+        return batch, [jax.jit(one)(c) for c in clearances]
+
+    held_batch, held = runs(True)
+    _, plain = runs(False)
+    jax.clear_caches()
+    for i in range(clearances.shape[0]):
+        for b, h, p in zip(held_batch, held[i], plain[i]):
+            np.testing.assert_array_equal(b[i], h)
+            np.testing.assert_array_equal(h, p)
+
+
 def test_a_paused_segment_keeps_its_step_limit():
     """max_steps bounds a segment's steps over all its pauses: the run fails, it does not go on."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
