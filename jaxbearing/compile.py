@@ -36,11 +36,11 @@ A second setting of that kind, `enable_entry_elimination`, limits XLA:CPU to the
 instruction set (`NO_FMA_FLAG`), which has no fused multiply–add: a product is then rounded
 before it is added wherever XLA computes it. It no longer makes a run faster (README gives the
 figures: slower, since the solver evaluates each cos and sin once with FMA on as well, with
-loops compiled whole, `jaxbearing._forms`); it is kept for a process that wants XLA:CPU without FMA, e.g. to compare
-results between CPUs with and without it. It is named for what it first switched on as well:
-the elimination of Eq. 36 entry by entry, which the solver uses in every process, and later
-the cheaper cos and sin. It too goes through ``XLA_FLAGS`` and affects every XLA:CPU
-computation of the process; other backends ignore the flag.
+loops compiled whole, `jaxbearing._forms`); it is kept for a process that wants XLA:CPU
+without FMA, e.g. to compare results between CPUs with and without it. It is named for what it
+first switched on as well: the elimination of Eq. 36 entry by entry, which the solver uses in
+every process, and later the cheaper cos and sin. It too goes through ``XLA_FLAGS`` and affects
+every XLA:CPU computation of the process; other backends ignore the flag.
 
 A third setting of the process concerns its memory, not XLA: XLA:CPU allocates the buffers of
 each call afresh, and glibc's malloc hands blocks above its mmap threshold (at most 32 MB) to
