@@ -19,7 +19,7 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from .._forms import output_forms
+from .._forms import held_forms, output_forms
 from ..laws import bearing as bearing_law
 from ..multibody.mechanism import Mechanism
 from ..solution import FORCE_SCALE, PEAK_BALL_LOAD, POWER, RING_POINTS_PER_BALL
@@ -30,14 +30,19 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
-@functools.partial(jax.jit, static_argnames="cheap")
-def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False):
+@functools.partial(jax.jit, static_argnames=("cheap", "held"))
+def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False, held=None):
     """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
     it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
     call, so the compiled program is unchanged. ``cheap``: with the cos and sin of
-    `_forms.output_forms` (the outputs' evaluation and the one loop); set here, since jit's
-    cache of traces does not see the context in which it was called."""
-    with output_forms() if cheap else contextlib.nullcontext():
+    `_forms.output_forms` (the outputs' evaluation and the one loop); else ``held`` as
+    `_forms.held_forms` (None: as `compile.loop_kernels`). Set here, since jit's cache of traces
+    does not see the context in which it was called."""
+    if cheap:
+        forms = output_forms()
+    else:
+        forms = contextlib.nullcontext() if held is None else held_forms(held)
+    with forms:
         return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 

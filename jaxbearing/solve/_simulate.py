@@ -43,7 +43,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from .._forms import output_forms
-from ..compile import jit, kernel_by_kernel, trace_state_clean
+from ..compile import jit, kernel_by_kernel, loop_kernels, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -55,6 +55,7 @@ from ..solution import (
     Solution,
 )
 from ._progress import label_key
+from .._forms import held_forms
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
@@ -424,11 +425,14 @@ def _simulate(
           "ts must be finite, increasing and lie within [t0, t1]", ts)],
     )
     n = model.n_coordinates
+    # cos and sin through the conditional only where the solver's loops compile whole: an
+    # implicit solver's call LAPACK (`jaxbearing._forms`)
+    held = loop_kernels() and not isinstance(solver, diffrax.AbstractImplicitSolver)
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, held=held)])
 
     setup = _Setup(
         model=model,
@@ -447,9 +451,10 @@ def _simulate(
         progress=progress,
         adjoint=adjoint,
     )
-    init = initial_carry(setup, y0, INITIAL_STEP)
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
-    final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
+    with held_forms(held):  # the steps' records and the events as the vector field
+        init = initial_carry(setup, y0, INITIAL_STEP)
+        final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, span = records
     end, peak, peak_time = contact_spans(onset_i, onset_valid, t_reached, span)
     t_final = jnp.max(jnp.where(used, t_reached, t0))
