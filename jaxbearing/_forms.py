@@ -13,8 +13,9 @@ evaluation per angle:
   run and in a batch, so the solver, whose sweep members must equal their single runs bit for
   bit (tests/test_sweep.py), does not use it;
 - otherwise (the solver's evaluations, the steps' records, the events), on a CPU with its loops
-  compiled whole (`jaxbearing.compile.enable_loop_kernels`; `held_forms` says where, since an
-  implicit solver's loops call LAPACK and stay kernel by kernel), `cos_sin` returns them through a
+  compiled whole (`jaxbearing.compile.enable_loop_kernels`; not under `held_forms(False)`, which
+  `simulate` sets for an implicit solver, whose loops call LAPACK and stay kernel by kernel),
+  `cos_sin` returns them through a
   `jax.lax.cond` whose predicate (any of the angles finite, across a vmapped batch) holds
   wherever cos and sin are numbers: their readers read the conditional's results, so XLA
   computes cos and sin once, for the conditional, and cannot repeat them in the readers'
@@ -39,7 +40,7 @@ import jax.numpy as jnp
 from .compile import loop_kernels
 
 _OUTPUTS = contextvars.ContextVar("jaxbearing_output_forms", default=False)
-_HELD = contextvars.ContextVar("jaxbearing_held_forms", default=None)
+_HELD = contextvars.ContextVar("jaxbearing_held_forms", default=True)
 
 
 @contextlib.contextmanager
@@ -53,10 +54,10 @@ def output_forms():
 
 
 @contextlib.contextmanager
-def held_forms(held: bool):
-    """Trace `cos_sin` outside `output_forms` through the conditional (``held``) or plainly,
-    instead of as `compile.loop_kernels` says (module docstring)."""
-    token = _HELD.set(bool(held))
+def held_forms(allowed: bool):
+    """Trace `cos_sin` outside `output_forms` through the conditional where ``allowed`` and
+    `compile.loop_kernels`, else plainly (module docstring)."""
+    token = _HELD.set(bool(allowed))
     try:
         yield
     finally:
@@ -66,8 +67,7 @@ def held_forms(held: bool):
 def cos_sin(angle) -> tuple[jax.Array, jax.Array]:
     """(cos, sin) of ``angle`` [rad], computed once per evaluation (module docstring)."""
     if not _OUTPUTS.get():
-        held = _HELD.get()
-        if not (loop_kernels() if held is None else held):
+        if not (_HELD.get() and loop_kernels()):
             return _cos_sin(angle)
         return jax.lax.platform_dependent(angle, cpu=_cos_sin_held, default=_cos_sin)
     c, s = _cos_sin(angle)

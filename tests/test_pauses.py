@@ -58,7 +58,6 @@ def test_cos_and_sin_held_change_no_bit(monkeypatch):
     loops compiled whole, which this suite runs without: forced here) give a run the plain
     form's numbers to the last bit, and vmapped members their single runs'."""
     from jaxbearing import _forms
-    from jaxbearing.solve import _simulate
 
     clearances = jnp.array([20e-6, 80e-6])
 
@@ -68,8 +67,7 @@ def test_cos_and_sin_held_change_no_bit(monkeypatch):
         return sol.q, sol.ball_loads, jb.metrics.peak_ball_load(sol), sol.num_steps
 
     def runs(held: bool):
-        for module in (_forms, _simulate):
-            monkeypatch.setattr(module, "loop_kernels", lambda: held)
+        monkeypatch.setattr(_forms, "loop_kernels", lambda: held)
         jax.clear_caches()  # trace again, in this form
         batch = jax.jit(jax.vmap(one))(clearances)
         return batch, [jax.jit(one)(c) for c in clearances]

@@ -8,7 +8,6 @@ those points, where the step may rise above the peaks so far (`jaxbearing.soluti
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
 from typing import NamedTuple
@@ -31,18 +30,14 @@ INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
 @functools.partial(jax.jit, static_argnames=("cheap", "held"))
-def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False, held=None):
+def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False, held=True):
     """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
     it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
     call, so the compiled program is unchanged. ``cheap``: with the cos and sin of
-    `_forms.output_forms` (the outputs' evaluation and the one loop); else ``held`` as
-    `_forms.held_forms` (None: as `compile.loop_kernels`). Set here, since jit's cache of traces
-    does not see the context in which it was called."""
-    if cheap:
-        forms = output_forms()
-    else:
-        forms = contextlib.nullcontext() if held is None else held_forms(held)
-    with forms:
+    `_forms.output_forms` (the outputs' evaluation and the one loop); else as
+    `_forms.held_forms(held)`. Set here, since jit's cache of traces does not see the context in
+    which it was called."""
+    with output_forms() if cheap else held_forms(held):
         return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 

@@ -42,8 +42,8 @@ import optimistix as optx
 
 from .. import _checks
 from .._checks import is_concrete
-from .._forms import output_forms
-from ..compile import jit, kernel_by_kernel, loop_kernels, trace_state_clean
+from .._forms import held_forms, output_forms
+from ..compile import jit, kernel_by_kernel, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -55,7 +55,6 @@ from ..solution import (
     Solution,
 )
 from ._progress import label_key
-from .._forms import held_forms
 from ._recording import _accelerations, _forces, _Recording
 from ._segment import (
     _Setup,
@@ -425,9 +424,9 @@ def _simulate(
           "ts must be finite, increasing and lie within [t0, t1]", ts)],
     )
     n = model.n_coordinates
-    # cos and sin through the conditional only where the solver's loops compile whole: an
-    # implicit solver's call LAPACK (`jaxbearing._forms`)
-    held = loop_kernels() and not isinstance(solver, diffrax.AbstractImplicitSolver)
+    # cos and sin through the conditional only where the solver's loops compile whole, not for
+    # an implicit solver, whose loops call LAPACK (`jaxbearing._forms`)
+    held = not isinstance(solver, diffrax.AbstractImplicitSolver)
 
     def vector_field(t, y, args):
         approach, _, engaged = args
