@@ -163,9 +163,9 @@ def test_loop_kernels_are_refused_once_the_backends_run(monkeypatch):
 
 
 def test_entry_elimination_follows_the_last_instruction_set_limit(monkeypatch):
-    """The solver's form of cos and sin is chosen by the FMA setting that XLA reads: the last
-    ``--xla_cpu_max_isa`` counts, and only sets without FMA select the cheaper form; too late to
-    set, like the loop kernels."""
+    """`entry_elimination` (FMA off) follows the instruction-set limit that XLA reads: the last
+    ``--xla_cpu_max_isa`` counts, and only sets without FMA turn it on; too late to set, like
+    the loop kernels."""
     assert jbcompile.fma_off(jbcompile.NO_FMA_FLAG)
     assert jbcompile.fma_off("--xla_cpu_max_isa=sse4_2 --xla_force_host_platform_device_count=2")
     assert not jbcompile.fma_off("")
