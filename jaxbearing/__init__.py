@@ -7,19 +7,24 @@ assembly and equations of motion (`multibody`) -> diffrax solve (`solve`) -> out
 
 jaxbearing computes in float64 and does not switch JAX's global mode for you: call
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
-On the CPU, call `enable_loop_kernels()` before the first computation: the solver's loops then
-run as whole functions, much faster; `enable_memory_reuse()` keeps freed memory in the
-process, which saves runs with many output times their page faults (`jaxbearing.compile`).
-`enable_entry_elimination()` turns XLA:CPU's fused multiply–adds off for the process; it no
-longer makes a run faster.
+Importing jaxbearing makes two process-wide settings, each with an opt-out
+(`jaxbearing._process`): XLA:CPU compiles the solver's loops whole (import jaxbearing before the
+process's first JAX computation), and JAX's persistent compilation cache keeps compiled solves
+for the next process.
 """
 
+from ._process import apply_compilation_cache, apply_loop_kernels
+
+apply_loop_kernels()  # before anything that may start JAX's backends (jaxbearing._process)
+apply_compilation_cache()
+
 from . import cases, laws, life, metrics, multibody, paths
-from .compile import enable_entry_elimination, enable_loop_kernels, enable_memory_reuse, jit
 from .multibody import Mechanism
 from .params import BallBearing, Impact
 from .solution import RESULTS, Contacts, SimulationError, Solution
 from .solve import (
+    SolveOptions,
+    default_controller,
     default_max_segments,
     default_solver,
     kvaerno5,
@@ -40,13 +45,11 @@ __all__ = [
     "SimulationError",
     "TuneResult",
     "Solution",
+    "SolveOptions",
     "cases",
+    "default_controller",
     "default_max_segments",
     "default_solver",
-    "enable_entry_elimination",
-    "enable_loop_kernels",
-    "enable_memory_reuse",
-    "jit",
     "kvaerno5",
     "laws",
     "life",

@@ -6,8 +6,11 @@ returned by a ``violations()`` method; on top of them every floating leaf must b
 
 - at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
   and what is allowed, whenever the values are concrete;
-- inside `jaxbearing.simulate`, with `eqx.error_if`, because parameters also change after
-  construction (`eqx.tree_at`, sweeps, optimisers) and may then be traced values.
+- by `jaxbearing.simulate`, because parameters also change after construction (`eqx.tree_at`,
+  sweeps, optimisers): on the host before the solve where the values are concrete, and inside
+  the compiled solve as a result code (`RESULTS.invalid_input`, no host callback, so the
+  compiled solve can be cached); a run given traced values (your own `jax.jit`, `jax.vmap`)
+  raises the rule's message with `eqx.error_if` around the solve when ``throw=True``.
 """
 
 from __future__ import annotations
@@ -65,6 +68,22 @@ def as_floats(*specs) -> tuple[jax.Array, ...]:
     return tuple(as_float(value, name, unit) for value, name, unit in specs)
 
 
+def float_leaves(tree):
+    """``tree`` with every number leaf (a Python or NumPy number or NumPy array, as
+    `eqx.tree_at` or a user may put in a model) as a float64 JAX array, so that a jitted solve
+    sees it as a value, not as part of its compiled program: another value compiles nothing.
+    Booleans stay as they are."""
+
+    def convert(x):
+        if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.number, np.ndarray)):
+            return x
+        if isinstance(x, np.ndarray) and x.dtype.kind not in "iuf":
+            return x
+        return jnp.asarray(x, jnp.float64)
+
+    return jax.tree_util.tree_map(convert, tree)
+
+
 def is_concrete(*xs) -> bool:
     """Whether every one of ``xs`` is a concrete value (known in Python), not a JAX tracer."""
     return not any(isinstance(x, jax.core.Tracer) for x in xs)
@@ -84,6 +103,13 @@ def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
     for is_wrong, message, value in violations:
         if is_concrete(is_wrong, value) and bool(np.any(np.asarray(is_wrong))):
             raise ValueError(f"{message}; got {_describe(value)}.")
+
+
+def any_violated(violations: Iterable[tuple[object, str, object]]) -> jax.Array:
+    """Whether any rule of ``violations`` is violated: a boolean scalar, computed under jit
+    without a host callback (`simulate` turns it into a result code)."""
+    wrong = [jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in violations]
+    return jnp.any(jnp.stack(wrong)) if wrong else jnp.zeros((), bool)
 
 
 def enforce(x, violations: Iterable[tuple[object, str, object]]):

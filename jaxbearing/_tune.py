@@ -10,7 +10,7 @@ Which differentiation mode:
   right choice for the handful of design parameters of a bearing (clearance, restitution,
   stiffness, damping). `sensitivity` uses it by default.
 - reverse mode (`jax.grad` with the default `RecursiveCheckpointAdjoint`) costs a fixed multiple
-  of a forward run whatever the number of parameters (the README gives the measured costs); use
+  of a forward run whatever the number of parameters (docs/performance.md gives the measured costs); use
   it for many parameters. `tune` uses it, so a loss can call `simulate` with its defaults.
 
 Both ball forces give derivatives of the computed solution that are exact to the solver's
@@ -35,7 +35,6 @@ import optax
 
 from . import paths as _paths
 from .solve import simulate
-from .compile import jit
 
 
 def _values(model, names: Sequence[str], purpose: str) -> jax.Array:
@@ -81,7 +80,7 @@ def sensitivity(
     return value, {n: grad[i] for i, n in enumerate(names)}
 
 
-@jit
+@eqx.filter_jit
 def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     """Compiled once per metric, parameter names and settings: later calls at other designs
     (arrays of the same shapes) reuse it."""
@@ -167,11 +166,11 @@ def tune(
         if not float(lo[i]) <= float(x0[i]) <= float(hi[i]):
             raise ValueError(f"Initial {n} = {float(x0[i]):.6g} lies outside its bounds.")
 
-    @jit
+    @eqx.filter_jit
     def value_and_grad(x):
         return jax.value_and_grad(lambda x_: loss(_set(model, names, x_ * scales)))(x)
 
-    @jit
+    @eqx.filter_jit
     def update(x, grad, state):
         updates, state = optimizer.update(grad, state, x)
         x = optax.apply_updates(x, updates)

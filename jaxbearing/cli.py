@@ -18,12 +18,6 @@ soon as that case is done, each atomically, so an interrupted run keeps what it 
 The console shows one progress bar per case (stderr), the summaries and Table 5; a warning says
 when --t1 stops before the slider first strikes the target (both cases are then the same).
 
-The command's process turns on the faster XLA:CPU setting of `jaxbearing.compile`, the loops
-compiled whole, and keeps freed memory for the next case (`enable_memory_reuse`).
-``"fma_off"`` in summary.json says whether the process runs XLA:CPU without fused
-multiply–adds (`enable_entry_elimination`, which the command no longer turns on: it made runs
-slower once the solver computed each cos and sin once with FMA on as well).
-
 ``--config FILE`` reads parameter overrides of the case from a TOML file, in SI units, e.g.
 
     [bearing]
@@ -55,7 +49,7 @@ DEFAULT_DT = 1e-6  # [s] output spacing: impacts last ~100 µs and their peaks n
 DEFAULT_CSV_DT = 1e-5  # [s] spacing of the CSV rows
 
 CASES = (("with_impact", "with impact", True), ("without_impact", "without impact", False))
-FIRST_CONTACT = 0.091  # [s] first slider-target contact of the paper's case (README)
+FIRST_CONTACT = 0.091  # [s] first slider-target contact of the paper's case (docs/xu2014.md)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -131,10 +125,6 @@ def _count(low: int):
 
 def run_xu2014(args) -> int:
     """The ``xu2014`` command: check the settings, then run, report and write each case."""
-    from .compile import enable_loop_kernels, enable_memory_reuse
-
-    enable_loop_kernels()  # this process is ours: the faster XLA:CPU settings (jaxbearing.compile)
-    enable_memory_reuse()  # its 200 001 output times a case: no page faults on fresh buffers
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -199,7 +189,6 @@ def _warn(message):
 def _summary(args, ts, stride, source, overrides, models) -> dict:
     """summary.json before any case has run: the settings and every parameter."""
     from . import cases, provenance, report
-    from .compile import entry_elimination
 
     dt = args.t1 / (ts.size - 1)
     return {
@@ -211,7 +200,6 @@ def _summary(args, ts, stride, source, overrides, models) -> dict:
         "csv_columns": None,
         "rtol": args.rtol,
         "atol": args.atol,
-        "fma_off": entry_elimination(),  # jaxbearing.compile
         "peak_window_from_s": report.PEAK_FROM,
         "figure_window_s": list(cases.FIGURE_WINDOW),
         "config_file": source,
@@ -228,10 +216,11 @@ def _run_case(args, model, ts, label):
     the solve fails."""
     import jax
 
-    from . import SimulationError, report, simulate
+    from . import SimulationError, default_controller, report, simulate
 
     def solve(progress):
-        sol = simulate(model, args.t1, ts, rtol=args.rtol, atol=args.atol, progress=progress)
+        controller = default_controller(args.rtol, args.atol)
+        sol = simulate(model, args.t1, ts, stepsize_controller=controller, progress=progress)
         return jax.block_until_ready(sol)
 
     start = time.perf_counter()

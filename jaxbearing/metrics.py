@@ -6,7 +6,7 @@ They are computed from the solution itself, not from its output times: `simulate
 interval between its stops, the peaks and integrals over every accepted solver step and the
 step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
 metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
-stops: ``t_min`` = `T_MIN` always is, and `simulate`'s ``window_edges`` adds others. An edge
+stops: ``t_min`` = `T_MIN` always is, and ``SolveOptions.window_edges`` adds others. An edge
 that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in
 Python, makes the metric NaN.
 
@@ -196,7 +196,7 @@ def intervals_inside(stats, t_min, t_max, name: str):
         raise ValueError(
             f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
             f"solution's {name} (not: {', '.join(map(str, missing))} s): pass the edges to "
-            f"simulate, as simulate(..., window_edges={missing})."
+            f"simulate, as simulate(..., options=jaxbearing.SolveOptions(window_edges={missing}))."
         )
     inside = (
         stats.valid

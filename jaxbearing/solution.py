@@ -32,11 +32,15 @@ class RESULTS(diffrax.RESULTS):
     max_segments_reached = (
         "More segments than max_segments allow (each contact onset and separation, each ball "
         "engagement and release, and with segment_steps each pause starts one). Increase "
-        "`max_segments`."
+        "`max_segments` (jaxbearing.SolveOptions)."
     )
     contact_overlap = (
         "The event found a contact switched on (its active_from) while its surfaces overlap: "
         "switch it on when they are apart."
+    )
+    invalid_input = (
+        "A parameter value, the initial state or the times are outside what is allowed (the "
+        "error raised with throw=True names which); nothing was integrated."
     )
 
 

@@ -28,8 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxbearing.compile import enable_loop_kernels
-
 CLEARANCES_UM = [5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 80.0]  # the paper's 40 µm among them
 ANNOTATED = 16  # grids up to this many values a side get their numbers printed and on the map
 RESTITUTIONS = [0.5, 0.7, 0.9, 1.0]  # the paper's 0.9 among them
@@ -42,9 +40,6 @@ PLOTTED = {
 
 
 def main(argv=None) -> int:
-    # before the first computation; this process is ours: the faster XLA:CPU setting (loops
-    # compiled whole: jaxbearing.compile)
-    enable_loop_kernels()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="2 x 2 grid, t1 = 0.12 s")
     parser.add_argument("--out", default=None, help="output folder (default results/clearance_sweep[_quick])")

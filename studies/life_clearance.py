@@ -32,12 +32,11 @@ import optax  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
 from jaxbearing.cases import GROOVE_INNER, GROOVE_OUTER  # noqa: E402
-from jaxbearing.compile import enable_loop_kernels  # noqa: E402
 
 GROOVES = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
 
 
-TIGHT = dict(rtol=1e-10, atol=1e-12)  # derivative checks: finite differences need tight solves
+TIGHT = dict(stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12))  # derivative checks: finite differences need tight solves
 
 
 def log_life(model, t1, ts, **kw):
@@ -47,9 +46,6 @@ def log_life(model, t1, ts, **kw):
 
 
 def main(argv=None):
-    # before the first computation; this process is ours: the faster XLA:CPU setting (loops
-    # compiled whole: jaxbearing.compile)
-    enable_loop_kernels()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 clearances, 0.12 s, 2 steps (tests)")
     parser.add_argument("--out", default="results/life_clearance")

@@ -30,7 +30,6 @@ import optax  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
 from jaxbearing import metrics  # noqa: E402
-from jaxbearing.compile import enable_loop_kernels  # noqa: E402
 
 TRUE = {"bearing.clearance": 40e-6, "impact.restitution": 0.9}
 START = {"bearing.clearance": 46e-6, "impact.restitution": 0.8}  # +15 %, -11 %
@@ -91,9 +90,6 @@ def design(t1, samples, steps, lr):
 
 
 def main(argv=None):
-    # before the first computation; this process is ours: the faster XLA:CPU setting (loops
-    # compiled whole: jaxbearing.compile)
-    enable_loop_kernels()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="few steps, coarse sampling (tests)")
     parser.add_argument("--out", default="results/tune_clearance")

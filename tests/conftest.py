@@ -27,7 +27,7 @@ COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     ),
 }
 _GROUP_OF = {test: group for group, tests in COMPILE_GROUPS.items() for test in tests}
-# the longest tests (README, *Tests*), handed out before all others: a worker that starts one
+# the longest tests (docs/testing.md), handed out before all others: a worker that starts one
 # last would run on alone, and under .ci/run's --start-before it would not start at all
 LONGEST = ("test_derivatives.py::test_derivatives_with_impact",)
 

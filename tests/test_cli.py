@@ -301,7 +301,7 @@ def test_cli_summary(quick_run):
             assert key in case, key
         assert case["t_final_s"] == pytest.approx(0.1)
         assert case["max_drift"] < 1e-8
-    # the paper's case as the library computes it (README's table; tests/test_xu2014.py checks
+    # the paper's case as the library computes it (docs/xu2014.md's table; tests/test_xu2014.py checks
     # it against the paper): the onset to the event's tolerance, the peaks to 2e-3, which covers
     # another step sequence on another machine (two solves of this case differ by up to 5e-4)
     assert imp["first_contact_time_s"] == pytest.approx(0.091348, abs=2e-6)

@@ -20,7 +20,7 @@ import pytest
 import jaxbearing as jb
 from jaxbearing import metrics
 
-TIGHT = dict(rtol=1e-12, atol=1e-14, max_steps=400_000)
+TIGHT = dict(stepsize_controller=jb.default_controller(rtol=1e-12, atol=1e-14), max_steps=400_000)
 REL_STEPS = (1e-3, 1e-4, 1e-5, 1e-6)
 CONVERGED = 0.005  # neighbouring differences agree this well at the chosen step
 AGREE = 0.02  # derivatives within 2 % of the converged difference (the issue's bound)
@@ -114,7 +114,7 @@ def test_reverse_mode_replays_no_step():
 
     def at(x, adjoint=None):
         m = jb.paths.replace(model, {name: x})
-        sol = jb.simulate(m, t1, ts, adjoint=adjoint, rtol=1e-10, atol=1e-12, fatigue=False)
+        sol = jb.simulate(m, t1, ts, adjoint=adjoint, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), options=jb.SolveOptions(fatigue=False))
         return sol.q[5, 3]
 
     x0 = float(jb.paths.get(model, name))
@@ -131,7 +131,7 @@ def test_output_samples_differentiate_alike_in_both_modes():
     forward mode, which runs another loop without such buffers (its own
     agreement with central differences: test_sensitivities_without_impact). The modes agree to 5e-4,
     not to rounding: their programs round differently, take other steps, and the derivative of
-    the discrete solution is not under the step control (README, *Derivatives*), hence 1e-2."""
+    the discrete solution is not under the step control (docs/gradients.md), hence 1e-2."""
     model, name = jb.cases.xu2014(impact=False), "bearing.clearance"
     t1, ts = 0.01, jnp.linspace(0.0, 0.01, 301)
     weights = jnp.asarray(np.random.default_rng(0).normal(size=ts.shape[0]))

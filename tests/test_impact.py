@@ -123,7 +123,7 @@ TS = np.linspace(0.0, T1, 4001)  # output spacing 3.8e-8 s, ~2900 samples inside
 def elastic():
     model, k = two_spheres(1.0)
     # Every simulate call in this module shares structure, ts shape and tolerances: one compile.
-    return model, k, jb.simulate(model, T1, TS, rtol=RTOL, atol=ATOL)
+    return model, k, jb.simulate(model, T1, TS, stepsize_controller=jb.default_controller(rtol=RTOL, atol=ATOL))
 
 
 def test_contact_stiffness_is_papers():
@@ -196,7 +196,7 @@ def test_damped_impact_record_against_dense_samples():
     end lies after the last sample in contact, by less than a spacing plus the time to open
     SEPARATION_OFFSET at the relative exit speed (about e V0 = 0.7 m/s; bound 0.5 m/s)."""
     model, _ = two_spheres(0.7)
-    sol = jb.simulate(model, T1, TS, rtol=RTOL, atol=ATOL)
+    sol = jb.simulate(model, T1, TS, stepsize_controller=jb.default_controller(rtol=RTOL, atol=ATOL))
     c = sol.contacts
     valid = np.asarray(c.valid)
     end, peak, when = (float(np.asarray(x)[valid][0]) for x in (c.end, c.peak_force, c.peak_time))
@@ -238,7 +238,7 @@ def effective_restitution(elastic):
     out = {}
     for e in RESTITUTIONS:
         model, k = two_spheres(e)
-        sol = jb.simulate(model, T1, TS, rtol=RTOL, atol=ATOL)
+        sol = jb.simulate(model, T1, TS, stepsize_controller=jb.default_controller(rtol=RTOL, atol=ATOL))
         qd = np.asarray(sol.qd)
         assert int(sol.contacts.count) == 1
         valid = np.asarray(sol.contacts.valid)

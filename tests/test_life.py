@@ -528,8 +528,7 @@ def test_life_gradient_through_the_simulation_matches_differences():
     def log_lives(clearance, adjoint=None):
         model = jb.paths.replace(base, {"bearing.clearance": clearance})
         sol = jb.simulate(
-            model, 0.02, ts, rtol=1e-10, atol=1e-13, adjoint=adjoint, time_cells=1,
-            window_edges=(0.005,),
+            model, 0.02, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-13), options=jb.SolveOptions(time_cells=1, window_edges=(0.005,)), adjoint=adjoint,
         )  # fmt: skip
         iso = life.iso_life(sol, model, t_min=0.005).l10
         lp = life.lp_life(sol, model, t_min=0.005, **grooves).l10

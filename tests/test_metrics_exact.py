@@ -166,7 +166,7 @@ def test_window_edges_must_be_stops(model, coarse):
     assert np.isnan(float(jax.jit(lambda s: M.rms_bearing_force(s, t_min=EDGE))(coarse)))
     with pytest.raises(ValueError, match="p = 16"):
         M.smooth_peak_ball_load(coarse, p=8.0)
-    sol = jb.simulate(model, T1, jnp.linspace(0.0, T1, 201), window_edges=(EDGE,))
+    sol = jb.simulate(model, T1, jnp.linspace(0.0, T1, 201), options=jb.SolveOptions(window_edges=(EDGE,)))
     before, after = M.rms_bearing_force(sol, 0.0, EDGE), M.rms_bearing_force(sol, t_min=EDGE)
     whole = M.rms_bearing_force(sol, t_min=0.0)
     mean_square = (before**2 * EDGE + after**2 * (T1 - EDGE)) / T1

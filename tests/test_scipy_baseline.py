@@ -97,7 +97,7 @@ def test_no_impact_start_agrees():
     benchmark's own criteria (1e-7 m, 0.5 N) are 100x looser still.
     """
     ts = np.linspace(0.0, 0.02, 201)
-    ref = jb.simulate(jb.cases.xu2014(impact=False), 0.02, ts, rtol=1e-10, atol=1e-12)
+    ref = jb.simulate(jb.cases.xu2014(impact=False), 0.02, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12))
     run = sb.simulate(0.02, ts, impact=False, method="LSODA", rtol=1e-10, atol=1e-12)
     pos = sb.POSITIONS
     assert np.max(np.abs(run["q"][:, pos] - np.asarray(ref.q)[:, pos])) < 1e-9
@@ -111,7 +111,7 @@ def test_one_loop_start_agrees():
     tolerances of `test_no_impact_start_agrees` (so the same bounds: each run within about 1e-10 m
     of the exact solution), at the span's end; the ball engagements are its events here.
     Measured: positions 1.4e-11 m, ball loads 4.8e-5 N apart; 36 stops and events."""
-    sol = jb.simulate_one_loop(jb.cases.xu2014(impact=False), 0.02, rtol=1e-10, atol=1e-12)
+    sol = jb.simulate_one_loop(jb.cases.xu2014(impact=False), 0.02, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12))
     run = sb.simulate(0.02, np.array([0.0, 0.02]), impact=False, method="LSODA", rtol=1e-10, atol=1e-12)
     pos = sb.POSITIONS
     assert np.max(np.abs(run["q"][-1, pos] - np.asarray(sol.q)[-1, pos])) < 1e-9
@@ -128,7 +128,7 @@ def test_impact_run_agrees():
     5e-8 m/s apart; bounds 10-100x above those."""
     ts = np.linspace(0.0, 0.1, 1001)
     model = jb.cases.xu2014(impact=True)
-    ref = jb.simulate(model, 0.1, ts, rtol=1e-11, atol=1e-13, max_steps=1_000_000)
+    ref = jb.simulate(model, 0.1, ts, stepsize_controller=jb.default_controller(rtol=1e-11, atol=1e-13), max_steps=1_000_000)
     run = sb.simulate(0.1, ts, impact=True, method="DOP853", rtol=1e-11, atol=1e-13)
     valid = np.asarray(ref.contacts.valid)
     onsets = np.asarray(ref.contacts.time)[valid]

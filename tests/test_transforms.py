@@ -32,7 +32,7 @@ RTOL_FD = 1e-2
 def end_x(clearance, adjoint=None):
     """x of body 1 at t1 [m]."""
     model = eqx.tree_at(lambda m: m.bearing.clearance, MODEL, clearance)
-    return jb.simulate(model, T1, TS, rtol=1e-10, atol=1e-12, adjoint=adjoint).q[-1, 3]
+    return jb.simulate(model, T1, TS, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), adjoint=adjoint).q[-1, 3]
 
 
 @pytest.fixture(scope="module")

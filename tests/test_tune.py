@@ -18,7 +18,7 @@ def rotor_model(clearance=20e-6, stiffness=5e9, damping=200.0):
 
 
 ROTOR_TS = jnp.linspace(0.0, 0.02, 201)
-ROTOR_KW = dict(rtol=1e-10, atol=1e-13, window_edges=(0.005,))  # the metric starts at 0.005 s
+ROTOR_KW = dict(stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-13), options=jb.SolveOptions(window_edges=(0.005,)))  # the metric starts at 0.005 s
 NAMES = ["bearing.clearance", "bearing.stiffness", "bearing.damping"]
 
 
@@ -125,7 +125,7 @@ def test_paper_case_gradients_match_finite_differences():
     forward-mode derivatives of the RMS bearing force over 0.04–0.1 s w.r.t. clearance,
     restitution and ball stiffness agree with central differences within 2 %."""
     t1, ts = 0.1, jnp.linspace(0.0, 0.1, 10001)
-    kw = dict(rtol=1e-10, atol=1e-12, max_steps=400_000)
+    kw = dict(stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), max_steps=400_000)
     model = jb.cases.xu2014(impact=True, ball_force="smooth")
     names = ["bearing.clearance", "impact.restitution", "bearing.stiffness"]
     _, grad = jb.sensitivity(model, metrics.rms_bearing_force, names, t1, ts, **kw)

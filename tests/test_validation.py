@@ -144,11 +144,11 @@ BAD_INPUTS = [
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, np.zeros((2, 3))),
      r"ts must be a 1-D array of at least one output time \[s\]; got shape \(2, 3\)\."),
     # step control (checked before compiling)
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=-1e-8),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=-1e-8)),
      r"rtol must be a finite number >= 0; got rtol = -1e-08\."),
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, atol=np.nan),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(atol=np.nan)),
      r"atol must be a finite number >= 0; got atol = nan\."),
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=0.0, atol=0.0),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=0.0, atol=0.0)),
      r"rtol and atol must not both be zero: the step control needs one\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, max_steps=0),
      r"max_steps must be an integer of at least 1; got 0\."),
@@ -211,17 +211,17 @@ BAD_INPUTS = [
      r"contact 0 is switched on at t0 while its surfaces overlap \(penetration \[m\]\): start it apart, "
      r"or switch it on later \(active_from\) when they are apart; got 0\.01\."),
     # window edges, a metric's coordinate
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, window_edges=0.005),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, options=jb.SolveOptions(window_edges=0.005)),
      r"window_edges must be a tuple of finite times \[s\] \(e\.g\. \(0\.09,\)\); got 0\.005\."),
     (lambda: jb.metrics.max_target_displacement(_short_solution(), coordinate=-2),
      r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
      r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=10.0),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=10.0)),
      r"rtol must be below 1 \(a relative error\); got rtol = 10\.0\."),
-    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, rtol=1e-6,
-                         stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-10)),
-     r"rtol and atol set the default step-size controller; with stepsize_controller, give them to that controller\."),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,
+                         stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=-1.0)),
+     r"atol must be a finite number >= 0; got atol = -1\.0\."),
     # parameter paths: one parameter named twice, a static setting, a non-positive scale
     (lambda: jb.paths.replace(jb.cases.xu2014(), {"bearing.clearance": 1e-5, "forces.0.bearing.clearance": 2e-5}),
      r"Parameter paths 'bearing\.clearance' and 'forces\.0\.bearing\.clearance' name the same parameter; give it once\."),
@@ -290,7 +290,7 @@ def test_initial_state_is_checked_at_t0():
     at t0 = 5 ms, and a run started there would drift by the crank's turn since t = 0."""
     model = jb.cases.xu2014(impact=False)
     with pytest.raises(Exception, match="initial positions q0 violate the joints at t0"):
-        jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), t0=0.005)
+        jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), options=jb.SolveOptions(t0=0.005))
 
 
 def test_a_contact_switched_on_while_overlapping_is_an_error():
@@ -335,7 +335,7 @@ def test_solver_failure_without_throw_reports_and_marks_nan():
 def test_too_few_segments_fails_loudly():
     model = jb.cases.xu2014(impact=True)
     with pytest.raises(jb.SimulationError, match="max_segments"):
-        jb.simulate(model, 0.1, jnp.linspace(0.0, 0.1, 11), max_segments=3)
+        jb.simulate(model, 0.1, jnp.linspace(0.0, 0.1, 11), options=jb.SolveOptions(max_segments=3))
 
 
 def test_float32_mode_is_refused(monkeypatch):

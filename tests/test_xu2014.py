@@ -116,8 +116,8 @@ def test_kvaerno5_agrees_with_tsit5(ball_force):
     many ball engagements) both solvers agree to well within the tolerance-driven error."""
     model = jb.cases.xu2014(impact=False, ball_force=ball_force)
     ts = jnp.linspace(0.0, 0.01, 21)
-    a = jb.simulate(model, 0.01, ts, rtol=1e-9, atol=1e-11)
-    b = jb.simulate(model, 0.01, ts, solver=jb.kvaerno5(), rtol=1e-9, atol=1e-11)
+    a = jb.simulate(model, 0.01, ts, stepsize_controller=jb.default_controller(rtol=1e-9, atol=1e-11))
+    b = jb.simulate(model, 0.01, ts, solver=jb.kvaerno5(), stepsize_controller=jb.default_controller(rtol=1e-9, atol=1e-11))
     # rod centre within 2e-9 m: the bearing deflections are micrometres
     np.testing.assert_allclose(np.asarray(b.q[:, 3:5]), np.asarray(a.q[:, 3:5]), atol=2e-9)
     np.testing.assert_allclose(np.asarray(b.ball_loads), np.asarray(a.ball_loads), atol=1.0)
@@ -152,7 +152,7 @@ def test_time_cells_do_not_change_the_motion(with_impact):
     solver's position accuracy, about 8e-9 m in the benchmark; measured: 1.6e-9 m, the sixth
     onset 1.1e-8 s apart at 0.14 m/s)."""
     model = jb.cases.xu2014(impact=True)
-    one = jb.simulate(model, 0.2, TS, time_cells=1)
+    one = jb.simulate(model, 0.2, TS, options=jb.SolveOptions(time_cells=1))
     # segments stop at every cell end (and the default window's start): the recorded
     # intervals end there, and the steps recorded in each tile it exactly (integral of 1)
     stats = with_impact.segments
@@ -169,4 +169,4 @@ def test_time_cells_do_not_change_the_motion(with_impact):
     closing = np.abs(onsets(with_impact) - onsets(one)) * np.asarray(one.contacts.approach_speed)[valid]
     assert np.max(closing) < 1e-8, closing
     with pytest.raises(ValueError, match="time_cells must be at least 1; got 0"):
-        jb.simulate(model, 0.2, TS, time_cells=0)
+        jb.simulate(model, 0.2, TS, options=jb.SolveOptions(time_cells=0))

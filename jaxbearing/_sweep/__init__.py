@@ -25,24 +25,18 @@ How it runs
 - Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is
   one call of a jitted ``shard_map(vmap(point -> metrics))`` over a 1-D mesh of all JAX devices
   (``jax.devices()``), so each device integrates its own members in its own loop; the chunk is
-  padded to a multiple of the device count, and to at least 2 points a device, by repeating its
-  last point (the padding is dropped): XLA compiles a batch of one as a program of its own,
-  whose members would round differently (`arguments.padded_rows`).
+  padded to a multiple of the device count by repeating its last point (the padding is dropped;
+  `arguments.padded_rows`).
   All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
   of the same model structure, metrics and solver settings in the same process). Memory stays
   bounded by the chunk, whatever the number of points.
 - Under vmap the members run in lock-step, segment by segment. Members pause every
-  `SEGMENT_STEPS` steps (``simulate(..., segment_steps=...)``, a pause resumes exactly: a member's
-  solution is that of the point run alone, to the last bit; the recorded peaks and integrals that
-  the metrics read may round differently in the last bits), so at each of its events a member
+  `SEGMENT_STEPS` steps (`SolveOptions.segment_steps`; a pause resumes with the same steps),
+  so at each of its events a member
   waits for the others at most that many steps; a chunk still runs until its slowest member
   finishes: points that need many steps slow down their chunk, not the others.
 - ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a
-  member, no segments and no output times, for large batches on accelerators (README, *On a
-  GPU*); its metrics agree with `simulate`'s to the solver's accuracy, not to the last bit, and may
-  move within that accuracy with the chunk a point runs in (the default keeps a member equal to
-  its point run alone). It
-  takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
+  member, no segments and no output times, for large batches on accelerators (docs/platforms.md); its metrics agree with `simulate`'s to the solver's accuracy. It takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
   ``"solve": "one_loop"`` in the manifest.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
   need: ``[t0, t1]`` when every metric comes from the solve's per-step records
@@ -55,11 +49,11 @@ How it runs
 - Chunk size. On CPU devices the default is 32 points per device. A batch runs in lock-step to
   its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
   gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and
-  holds more members in memory. The measured rates and memory per member are in the README
-  ('Performance and solvers') and ``benchmarks/results.json``
+  holds more members in memory. The measured rates and memory per member are in
+  docs/performance.md and ``benchmarks/results.json``
   (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 4096 points
   per device for the segmented solve and 65536 for ``solve="one_loop"`` (the best measured on
-  one GPU: README, 'Where it runs'); there a chunk runs in lock-step too, but the device's
+  one GPU: docs/performance.md); there a chunk runs in lock-step too, but the device's
   threads are idle until tens of thousands of members share an iteration.
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,
   ``max_segments``, a blown-up solve) is marked by ``status``/``failed`` and the sweep goes on.

@@ -3,6 +3,7 @@ metrics (and whether they need output samples), simulate's settings, output time
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 from collections.abc import Callable, Mapping
@@ -16,11 +17,18 @@ import numpy as np
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
-from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
-from ..solve._simulate import _checked_span, _checked_ts, window_stops
+from ..solve import (
+    SolveOptions,
+    default_controller,
+    default_max_segments,
+    default_solver,
+    simulate,
+    simulate_one_loop,
+)
+from ..solve._simulate import _checked_controller, _checked_options, _checked_span, _checked_ts, window_stops
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
-DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (README)
+DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
 SEGMENT_STEPS = 8  # a member's segments pause after this many steps (docs/performance.md: 4-12)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
@@ -61,15 +69,20 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
     points, shape = grid_points(names, axes, grid)
     items = metric_items(metrics, names)
     sim_kwargs = simulate_kwargs_of(simulate_kwargs, solve)
-    t0, t1 = (float(t) for t in _checked_span(sim_kwargs.get("t0", 0.0), t1))
-    window_stops(sim_kwargs.get("window_edges", ()))
-    sim_kwargs.setdefault("fatigue", any(needs_fatigue(fn) for _, fn in items))
+    options = _checked_options(sim_kwargs.get("options"))
+    t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
+    window_stops(options.window_edges)
+    if options.fatigue is None:
+        options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "one_loop":
         _check_one_loop(items, ts)
     else:
-        sim_kwargs.setdefault("segment_steps", SEGMENT_STEPS)
-        if sim_kwargs.get("max_segments") is None:
-            sim_kwargs["max_segments"] = default_max_segments(model, t0, t1, sim_kwargs["segment_steps"])
+        if options.segment_steps is None:
+            options = dataclasses.replace(options, segment_steps=SEGMENT_STEPS)
+        if options.max_segments is None:
+            segments = default_max_segments(model, t0, t1, options.segment_steps)
+            options = dataclasses.replace(options, max_segments=segments)
+    sim_kwargs["options"] = options
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
     if metrics is None and t1 <= _metrics.T_MIN:
@@ -210,18 +223,26 @@ def simulate_kwargs_of(kwargs, solve="segments"):
 
 
 def resolved_settings(sim_kwargs, solve="segments"):
-    """The solve's keyword arguments with defaults filled in (for the manifest and attributes):
-    `simulate`'s, or `simulate_one_loop`'s with ``solver`` (Tsit5) and ``max_segments`` (none,
-    0) added."""
+    """The solve's settings with defaults filled in, flat (for the manifest and attributes):
+    `simulate`'s keywords (or `simulate_one_loop`'s, with ``solver`` Tsit5 and
+    ``max_segments`` 0), the controller's ``rtol`` and ``atol``, and every field of its
+    `SolveOptions`."""
     settings = {}
     for name, p in _simulate_parameters(solve).items():
-        if p.kind is not inspect.Parameter.KEYWORD_ONLY or name in NOT_FORWARDED:
+        if p.kind is not inspect.Parameter.KEYWORD_ONLY or name in NOT_FORWARDED + ("options",):
             continue
         settings[name] = sim_kwargs.get(name, p.default)
     if settings.get("solver") is None:
         settings["solver"] = default_solver()
-    settings.setdefault("max_segments", 0)
-    return settings
+    controller = _checked_controller(settings.get("stepsize_controller"))
+    settings["stepsize_controller"] = type(controller).__name__
+    settings["rtol"] = getattr(controller, "rtol", None)
+    settings["atol"] = getattr(controller, "atol", None)
+    options = _checked_options(sim_kwargs.get("options"))
+    settings.update({f.name: getattr(options, f.name) for f in dataclasses.fields(options)})
+    if settings.get("max_segments") is None:
+        settings["max_segments"] = 0
+    return dict(sorted(settings.items()))
 
 
 def _simulate_parameters(solve="segments"):
@@ -260,19 +281,17 @@ def _check_solve(solve):
 def default_chunk_size(platform: str | None = None, solve: str = "segments") -> int:
     """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices; on
     accelerators 4096 for ``solve="segments"`` and 65536 for ``"one_loop"``, whose members cost
-    little more an iteration in larger batches until the device fills (measured: README, 'Where
-    it runs')."""
+    little more an iteration in larger batches until the device fills (measured:
+    docs/performance.md)."""
     _check_solve(solve)
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE_CPU if platform == "cpu" else DEFAULT_CHUNK_SIZE_ACCELERATOR[solve]
 
 
 def padded_rows(chunk_points, n_devices) -> int:
-    """Rows a chunk of ``chunk_points`` points runs as: a multiple of the device count with at
-    least 2 rows a device (the padding repeats the last point). XLA compiles a batch of one as a
-    program of its own, whose rounding differs from that of any larger batch (and from the
-    point run alone), so a member would depend on its chunk size."""
-    return max(2, math.ceil(chunk_points / n_devices)) * n_devices
+    """Rows a chunk of ``chunk_points`` points runs as: a multiple of the device count (the
+    padding repeats the last point)."""
+    return math.ceil(chunk_points / n_devices) * n_devices
 
 
 def chunk_points(chunk_size, n_devices, n_points, solve="segments") -> int:

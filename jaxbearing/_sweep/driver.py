@@ -61,12 +61,12 @@ def sweep(
         solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
             `simulate_one_loop` run (one while loop a member, no output times: for large
             batches on accelerators; its metrics agree with `simulate`'s to the solver's
-            accuracy, not to the last bit, and may move within that accuracy with the chunk a
-            point runs in, which XLA compiles as another batch). It takes ``t0``, ``rtol``, ``atol``, ``max_steps``,
-            ``window_edges`` and ``fatigue``, and only metrics of the solve's records.
-        **simulate_kwargs: passed to `simulate` (t0, solver, rtol, atol, stepsize_controller,
-            max_steps, max_segments, adjoint, ...); ``throw`` and ``progress`` are set by the
-            sweep.
+            accuracy). It takes ``stepsize_controller``,
+            ``max_steps`` and ``options``, and only metrics of the solve's records.
+        **simulate_kwargs: passed to `simulate` (``solver``, ``stepsize_controller``,
+            ``adjoint``, ``max_steps``, ``options``); ``throw`` and ``progress`` are set by the
+            sweep. Without ``options.fatigue`` set, members record the life's integrals only
+            where a metric reads them; ``options.segment_steps`` defaults to `SEGMENT_STEPS`.
 
     Returns:
         `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =
@@ -82,6 +82,7 @@ def sweep(
 
     _checks.require_x64()
     started = time.perf_counter()
+    model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
     request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve)
     out = None if out is None else Path(out)
     n_devices = jax.device_count()

@@ -108,7 +108,7 @@ def _member(model, row, ts, names, metric_items, t1, sim_kwargs, solve):
     return jnp.stack(outs), code
 
 
-@eqx.filter_jit  # XLA's default options: see `jaxbearing.compile`
+@eqx.filter_jit
 def run_chunk(model, rows, ts, names, metric_items, t1, sim_items, solve, mesh):
     """The members of ``rows`` (sharded over ``mesh``'s devices, vmapped on each)."""
     dynamic, static = eqx.partition(model, eqx.is_array)

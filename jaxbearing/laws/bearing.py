@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._forms import cos_sin, power
+from .._forms import power
 
 BALL_RELEASE = 1e-12  # [m] an engaged ball of the paper force is released at delta_r = -1 pm
 
@@ -67,7 +67,7 @@ def ball_directions(cage_angle, n_balls: int) -> tuple[jax.Array, jax.Array]:
     instead of 2 N_b (they dominate the cost of a batched force evaluation).
     """
     pitch = _pitch_angles(n_balls)
-    c, s = cos_sin(cage_angle)
+    c, s = jnp.cos(cage_angle), jnp.sin(cage_angle)
     return np.cos(pitch) * c - np.sin(pitch) * s, np.sin(pitch) * c + np.cos(pitch) * s
 
 

@@ -14,7 +14,6 @@ import jax
 import jax.numpy as jnp
 
 from .._checks import is_concrete
-from ..compile import jit
 from ..metrics import WithModel, intervals_inside
 from ..multibody.mechanism import Mechanism
 from ..solution import (
@@ -128,7 +127,7 @@ def iso_life(
 
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
     [s], whose edges must be ends of the solve's stop intervals (t0, `T_MIN`, the time cells'
-    ends, simulate's ``window_edges``, t1); bearing: index of the bearing joint (0, the one
+    ends, ``SolveOptions.window_edges``, t1); bearing: index of the bearing joint (0, the one
     `Solution` records).
     """
     _check_solution(sol, bearing)
@@ -198,7 +197,7 @@ def ring_point_loads(
     return _ring_point_loads(joint, body, sol.q, sol.qd, int(points_per_ball))
 
 
-@jit
+@eqx.filter_jit
 def _ring_point_loads(joint, body, q, qd, k):
     row = 0 if body == joint.inner_body else 1
     m = joint.bearing.n_balls * k
@@ -251,7 +250,7 @@ def lp_life(
             them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
             0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
         t_min, t_max: window [s]; its edges must be ends of the solve's stop intervals (t0,
-            `T_MIN`, the time cells' ends, simulate's ``window_edges``, t1).
+            `T_MIN`, the time cells' ends, ``SolveOptions.window_edges``, t1).
         rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
         points_per_ball: ring points per ball spacing for ``rotating=None``: the solve follows
             `solution.RING_POINTS_PER_BALL`; None or that number.

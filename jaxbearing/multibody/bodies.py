@@ -13,7 +13,6 @@ import jax
 import jax.numpy as jnp
 
 from .. import _checks
-from .._forms import cos_sin
 
 GROUND = -1
 
@@ -42,14 +41,14 @@ class Body(eqx.Module):
 def rotate(theta, s) -> jax.Array:
     """A(theta) s: a plane vector s rotated by theta [rad] (Eq. 2), written out so that XLA
     fuses it with its neighbours (a 2x2 matmul is a kernel call of its own)."""
-    c, sn = cos_sin(theta)
+    c, sn = jnp.cos(theta), jnp.sin(theta)
     return jnp.stack([c * s[0] - sn * s[1], sn * s[0] + c * s[1]])
 
 
 def rotate_back(theta, v) -> jax.Array:
     """A(theta)^T v = A(-theta) v: a global vector v in the frame of a body at angle theta [rad],
     from the cos and sin of theta itself (`rotate`)."""
-    c, sn = cos_sin(theta)
+    c, sn = jnp.cos(theta), jnp.sin(theta)
     return jnp.stack([c * v[0] + sn * v[1], c * v[1] - sn * v[0]])
 
 

@@ -15,16 +15,6 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
   Phi_q^T lambda written out entry by entry on the sparsity of Phi_q, which the joints' types and
   bodies fix. For the paper's slider–crank it is a few hundred scalar operations, much cheaper
   than the dense form; the solver and the outputs use it.
-  A sweep member must equal the same point run alone to the last bit (tests/test_sweep.py,
-  tests/test_pauses.py), and XLA would round scalar code differently in a single and a vmapped
-  program where a product of two numbers that a batch shares is computed once for the batch
-  (and rounded) while the single run fuses it with the next sum into one fused multiply–add,
-  or where a division by a shared number becomes a product with its reciprocal.
-  `_sparse_accelerations` leaves neither pattern a chance: every input is a value of the state
-  and every division a product with a reciprocal. With the plain cos and sin the two programs
-  then round it alike, with XLA:CPU's fused multiply–adds on or off (what those tests check:
-  XLA promises no such thing), and so they do with the cos and sin that the solver computes once
-  per angle (`jaxbearing._forms`); with the outputs' form of them only with FMA off.
 """
 
 from __future__ import annotations
@@ -254,20 +244,13 @@ class Mechanism(eqx.Module):
 
     def _sparse_accelerations(self, t, q, qd, forces, inverse_mass) -> jax.Array:
         """`accelerations` on the sparsity of Phi_q, for the generalised forces ``forces`` and
-        the diagonal of M^-1 ``inverse_mass``.
-
-        Every input of the elimination (M^-1, Q_A, the entries of Phi_q, the right-hand side) is
-        multiplied by ``one`` = 1 + 0 q_1, exactly 1 but a value of the state: no program can
-        then fold a product of two parameters at compile time (a model closed over by a jit) or
-        compute it once for a batch (a vmapped sweep) while another computes it per call, so
-        that the elimination rounds alike in all of them (module docstring)."""
+        the diagonal of M^-1 ``inverse_mass``."""
         n = self.n_coordinates
-        one = 1.0 + 0.0 * q[0]
-        m_inv = [inverse_mass[c] * one for c in range(n)]
-        f = [forces[c] * one for c in range(n)]
-        rows = [{c: value * one for c, value in row.items()} for row in self.constraint_rows(q, t)]
+        m_inv = [inverse_mass[c] for c in range(n)]
+        f = [forces[c] for c in range(n)]
+        rows = self.constraint_rows(q, t)
         phi_dot = jnp.stack([_row_dot(row, qd) for row in rows]) + self._time_derivatives(q, t)
-        rhs = self._stabilised_rhs(q, qd, t, phi_dot) * one
+        rhs = self._stabilised_rhs(q, qd, t, phi_dot)
         schur = [[_weighted_dot(rows[i], rows[j], m_inv) for j in range(i + 1)] for i in range(len(rows))]
         accelerations_free = [m * x for m, x in zip(m_inv, f)]  # M^-1 Q_A
         b = [_row_dot(row, accelerations_free) - rhs[i] for i, row in enumerate(rows)]

@@ -10,7 +10,8 @@ the recording solver (`_recording`), which records the `SegmentStats` the metric
 
 from ..solution import RESULTS, Contacts, FatigueStats, SegmentStats, SimulationError, Solution
 from ._one_loop import simulate_one_loop
-from ._simulate import default_max_segments, default_solver, kvaerno5, simulate
+from ._options import SolveOptions
+from ._simulate import default_controller, default_max_segments, default_solver, kvaerno5, simulate
 from ._stops import default_output_block
 
 __all__ = [
@@ -20,6 +21,8 @@ __all__ = [
     "SegmentStats",
     "SimulationError",
     "Solution",
+    "SolveOptions",
+    "default_controller",
     "default_max_segments",
     "default_output_block",
     "default_solver",

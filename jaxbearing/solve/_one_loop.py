@@ -2,7 +2,7 @@
 
 `simulate` runs a `lax.scan` of segments, each a `diffrax.diffeqsolve` with its own loops (the
 step loop, the event's root find, the output writes): on a GPU every loop iteration is a host
-round trip and every step launches a few hundred kernels (README, *On a GPU*). Here one
+round trip and every step launches a few hundred kernels (docs/platforms.md). Here one
 iteration of one `lax.while_loop` does all of a step's work with selects instead of branches, so
 that a vmapped batch runs as one loop whose body XLA fuses into few kernels:
 
@@ -24,7 +24,10 @@ that a vmapped batch runs as one loop whose body XLA fuses into few kernels:
 It integrates the same equations with the same solver, controller and event rules as `simulate`,
 so its metrics agree with `simulate`'s to the solver's accuracy (not to the last bit: the steps
 differ where `simulate` restarts a segment). It keeps no output times (the `Solution` has two:
-t0 and the time reached) and is not differentiable (use `simulate`). Where `simulate` counts
+t0 and the time reached). It is differentiable in forward mode (`jax.jvp`, `jax.jacfwd`, also
+under `jax.vmap`: batched sensitivities): each located event time carries the tangent of the
+implicit function theorem (`_event_time`), as `simulate`'s segments do; reverse mode raises
+(a while loop), use `simulate` there. Where `simulate` counts
 ``max_steps`` per segment, here it bounds the steps (accepted and rejected) of the whole run.
 A member fails (`RESULTS`) when its steps run out, when a proposed step falls below
 `SMALLEST_STEP`, and, as in `simulate`, when a contact switches on while its surfaces overlap
@@ -38,11 +41,11 @@ from typing import NamedTuple
 
 import diffrax
 import equinox.internal as eqxi
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
 from .. import _checks
-from ..compile import jit
 from ..multibody.mechanism import Mechanism
 from ..solution import PEAK_CONTACT_FORCE, RESULTS, Contacts
 from ._recording import (
@@ -66,20 +69,20 @@ from ._segment import (
     itp_start,
     itp_step,
 )
+from ._options import SolveOptions
 from ._simulate import (
-    ATOL,
     INITIAL_STEP,
-    RTOL,
     _check_max_steps,
+    _checked_controller,
+    _checked_options,
     _checked_span,
-    _checked_tolerances,
     _fatigue_stats,
     _intervals,
     _outputs,
     _raise_on_failure,
     _where_rows,
     segment_stats,
-    checked_start,
+    start_rules,
     window_stops,
 )
 from ._stops import _stops
@@ -96,41 +99,46 @@ def simulate_one_loop(
     model: Mechanism,
     t1: float,
     *,
-    t0: float = 0.0,
-    rtol: float = RTOL,
-    atol: float = ATOL,
+    stepsize_controller: diffrax.PIDController | None = None,
     max_steps: int = 1_000_000,
-    window_edges: tuple = (),
-    fatigue: bool = True,
     throw: bool = True,
+    options: SolveOptions | None = None,
 ):
-    """Integrate Eq. 36 from ``t0`` to ``t1`` [s] in one while loop (module docstring) and
-    return the `Solution` with what the metrics and the life read (``segments``, ``fatigue``,
-    ``contacts``), and outputs at two times only: ``t0`` and the time reached.
+    """Integrate Eq. 36 from ``options.t0`` (default 0) to ``t1`` [s] in one while loop (module
+    docstring) and return the `Solution` with what the metrics and the life read
+    (``segments``, ``fatigue``, ``contacts``), and outputs at two times only: t0 and the time
+    reached.
 
     Args:
         model: a `Mechanism`; starts from ``model.q0, qd0``.
         t1: final time [s], > t0.
-        rtol, atol: error control of the step-size controller, as in `simulate`.
+        stepsize_controller: a `diffrax.PIDController` (default `default_controller()`), as in
+            `simulate`.
         max_steps: steps (accepted and rejected) of the whole run, an integer >= 1.
-        window_edges: further stops [s], as in `simulate`.
-        fatigue: record `Solution.fatigue`, as in `simulate`.
-        throw: raise `SimulationError` on failure; with False, inspect ``sol.result``.
+        throw: raise on failure, as in `simulate`; with False, inspect ``sol.result``.
+        options: `SolveOptions`; its ``t0``, ``window_edges`` and ``fatigue`` apply (the one
+            loop has no segments).
 
     ``sol.contacts`` keeps the first `ONSET_SLOTS` contact onsets; ``num_segments`` counts the
-    stops and events passed, as `simulate`'s segments would. Not differentiable: derivatives
-    raise (use `simulate`, whose segments carry the events' implicit derivatives).
+    stops and events passed, as `simulate`'s segments would. Forward-mode derivatives
+    (`jax.jvp`, `jax.jacfwd`) agree with `simulate`'s; reverse mode raises (use `simulate`).
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):
         raise TypeError(f"simulate_one_loop needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    _checks.raise_if_concrete(_checks.finite_leaves(model))
-    t0, t1 = _checked_span(t0, t1)
-    rtol, atol = _checked_tolerances(rtol, atol)
+    model = _checks.float_leaves(model)
+    options = _checked_options(options)
+    controller = _checked_controller(stepsize_controller)
+    if not isinstance(controller, diffrax.PIDController):
+        raise TypeError(
+            "simulate_one_loop steps with a diffrax.PIDController; got "
+            f"{type(controller).__name__}."
+        )
+    t0, t1 = _checked_span(options.t0, t1)
     _check_max_steps(max_steps)
-    stops = window_stops(window_edges)
-    sol = _one_loop(model, t0, t1, rtol, atol, jnp.asarray(max_steps), stops, bool(fatigue))
-    return _raise_on_failure(sol, t1) if throw else sol
+    stops = window_stops(options.window_edges)
+    sol = _one_loop(model, t0, t1, controller, jnp.asarray(max_steps), stops, options.fatigue is not False)
+    return _raise_on_failure(sol, t1, lambda: start_rules(model, t0, t1)) if throw else sol
 
 
 class _State(NamedTuple):
@@ -189,26 +197,23 @@ def _stages(vector_field, t, y, f, h, args, first):
     return y1, error, jnp.stack(k), value, first_value
 
 
-@jit
-def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
-    model, t0, t1 = eqxi.nondifferentiable(
-        (model, t0, t1), msg="simulate_one_loop is not differentiable: use simulate."
-    )
-    y0 = checked_start(model, t0, t1)
+@eqx.filter_jit
+def _one_loop(model, t0, t1, controller, max_steps, extra_stops, fatigue):
+    invalid = _checks.any_violated(start_rules(model, t0, t1))
+    y0 = jnp.concatenate([model.q0, model.qd0])
     n = model.n_coordinates
     stops = _stops(t0, t1, 1, extra_stops)
-    controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, cheap=True)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
 
     def event_max(t, y, in_contact, engaged):
         return jnp.max(event_values(model, t, y, in_contact, engaged))
 
     has_events = bool(model.contacts or model.n_switched_balls)
-    state = _initial_state(model, vector_field, stops, t0, t1, y0, fatigue)
+    state = _initial_state(model, vector_field, stops, t0, t1, y0, fatigue, invalid)
 
     def body(s: _State) -> _State:
         args = (s.approach, s.in_contact, s.engaged)
@@ -218,13 +223,18 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         root = s.root
         if has_events:
             x = root.next
-            root = itp_step(root, event_max(x, interpolation.evaluate(x), s.in_contact, s.engaged))
+            error = event_max(x, interpolation.evaluate(x), s.in_contact, s.engaged)
+            root = jax.lax.stop_gradient(itp_step(root, error))  # tangents: `_event_time`
             narrow = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
             small = jnp.abs(root.error) < EVENT_TIME_TOLERANCE
             located = s.locating & ~s.done & narrow & (small | (s.root_steps + 1 >= ROOT_STEPS))
         else:
             located = jnp.zeros((), bool)
         t_event = root.upper
+        if has_events:
+            t_event = _event_time(
+                lambda t: event_max(t, interpolation.evaluate(t), s.in_contact, s.engaged), t_event
+            )
         y_event = interpolation.evaluate(t_event)
         approach, in_contact, engaged = s.approach, s.in_contact, s.engaged
         record = (s.t, s.t, jnp.asarray(-1), jnp.asarray(False))  # no onset
@@ -292,9 +302,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         result = RESULTS.where(out_of_steps & ~too_small, RESULTS.max_steps_reached, result)
         result = RESULTS.where(overlap, RESULTS.contact_overlap, result)
         if has_events:
-            started = itp_start(
+            started = jax.lax.stop_gradient(itp_start(
                 s.t, t_b, event_max(s.t, s.y, s.in_contact, s.engaged), value_b, EVENT_TIME_TOLERANCE
-            )
+            ))
             root = jax.tree_util.tree_map(lambda a, b: jnp.where(start, a, b), started, root)
         onset = located & record[3]
         slot = onset & (jnp.arange(ONSET_SLOTS) == s.n_onsets)
@@ -331,6 +341,9 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         )
 
     final = jax.lax.while_loop(lambda s: ~s.done, body, state)
+    final = eqxi.nondifferentiable_backward(
+        final, msg="simulate_one_loop supports forward mode (jax.jvp, jax.jacfwd) only: use simulate for reverse mode."
+    )
     t_final = final.t
     t_start, t_end, valid = _intervals(stops, t0, t_final)
     segments = segment_stats(t_start, t_end, final.peaks, final.integrals, valid)
@@ -365,6 +378,18 @@ def _one_loop(model, t0, t1, rtol, atol, max_steps, extra_stops, fatigue):
         final.rejected,
         jnp.sum(valid) + final.events,
     )
+
+
+def _event_time(event, t_root):
+    """The event time ``t_root`` [s] that the root finder located, with the tangent of the
+    implicit function theorem: the event value ``event(t)`` (along the step's interpolant) is 0
+    there, so dt = -(d event / d parameters) / (d event / dt). Its value is ``t_root``; the
+    bracketing iterates carry no derivative."""
+    t_root = jax.lax.stop_gradient(t_root)
+    value, slope = jax.jvp(event, (t_root,), (jnp.ones_like(t_root),))
+    slope = jax.lax.stop_gradient(slope)
+    moved = value - jax.lax.stop_gradient(value)  # 0, with the tangent of the value at fixed t
+    return t_root - jnp.where(slope != 0, moved / jnp.where(slope != 0, slope, 1.0), 0.0)
 
 
 def _running(s: _State, peaks: Peaks) -> Peaks:
@@ -405,9 +430,10 @@ def _row(x, here):
     return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
 
 
-def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
+def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue, invalid) -> _State:
     """At t0: nothing in contact, the balls with delta_r > 0 engaged (as `simulate`), the
-    initial state's peaks recorded in the first interval."""
+    initial state's peaks recorded in the first interval; done at once, with
+    `RESULTS.invalid_input`, where ``invalid`` (a rule of the run is broken)."""
     n, n_contacts = model.n_coordinates, len(model.contacts)
     approach = jnp.zeros(n_contacts)
     in_contact = jnp.zeros(n_contacts, bool)
@@ -443,6 +469,6 @@ def _initial_state(model, vector_field, stops, t0, t1, y0, fatigue) -> _State:
         events=jnp.asarray(0),
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
-        done=jnp.asarray(False),
-        result=RESULTS.successful,
+        done=invalid,
+        result=RESULTS.where(invalid, RESULTS.invalid_input, RESULTS.successful),
     )

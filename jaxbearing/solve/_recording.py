@@ -18,7 +18,6 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from .._forms import held_forms, output_forms
 from ..laws import bearing as bearing_law
 from ..multibody.mechanism import Mechanism
 from ..solution import FORCE_SCALE, PEAK_BALL_LOAD, POWER, RING_POINTS_PER_BALL
@@ -29,16 +28,12 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
-@functools.partial(jax.jit, static_argnames=("cheap", "held"))
-def _accelerations(model, t, q, qd, approach_speeds, engaged, cheap=False, held=True):
+@jax.jit
+def _accelerations(model, t, q, qd, approach_speeds, engaged):
     """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
     it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
-    call, so the compiled program is unchanged. ``cheap``: with the cos and sin of
-    `_forms.output_forms` (the outputs' evaluation and the one loop); else as
-    `_forms.held_forms(held)`. Set here, since jit's cache of traces does not see the context in
-    which it was called."""
-    with output_forms() if cheap else held_forms(held):
-        return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
+    call, so the compiled program is unchanged."""
+    return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):
@@ -268,9 +263,7 @@ def _largest_of(points: Peaks) -> Peaks:
 
 
 def _gauss_sum(values):
-    """sum_i GAUSS_WEIGHTS[i] values[i] over the 3 points, written out rather than a dot: XLA's
-    dot kernels may sum in another order for another batch size, and a sweep member must equal
-    a single run to the last bit whatever its chunk."""
+    """sum_i GAUSS_WEIGHTS[i] values[i] over the 3 Gauss points."""
     w = GAUSS_WEIGHTS
     return w[0] * values[0] + w[1] * values[1] + w[2] * values[2]
 

@@ -48,7 +48,7 @@ class _EventRoot(optx.AbstractRootFinder):
     holds the sign change. It never takes more than ``ITP_SLACK`` steps more than bisection to
     the same bracket width, and converges superlinearly on a smooth f (the step's interpolant),
     so a batch waits far fewer iterations for its slowest member than with bisection (each an
-    iteration of a while loop; README's GPU section). It stops, like `optx.Bisection`, when the
+    iteration of a while loop; docs/performance.md). It stops, like `optx.Bisection`, when the
     bracket is narrower than ``atol`` and the last value is smaller than ``atol``; or, narrower
     than ``atol`` with a value above `JUMP` (f jumps there: a contact switched on while its
     surfaces overlap), at the bracket's upper end, where `_switch` then says so.
@@ -98,7 +98,6 @@ def _jumped(state, atol) -> jax.Array:
 
 ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
 ITP_SLACK = 1  # steps allowed beyond bisection's (the method's n0)
-FALSI_GRID = 2.0**-47  # [s] (7.1e-15 s, below EVENT_TIME_TOLERANCE / 8): a power of two, exact
 
 
 def itp_start(lower, upper, f_lower, f_upper, atol) -> _ITPState:
@@ -142,36 +141,22 @@ def itp_step(state: _ITPState, error) -> _ITPState:
 
 
 def _initial_reach(width, atol):
-    """``atol / 2`` times the smallest power of two >= width / atol, times 2^`ITP_SLACK`.
-
-    Computed exactly (frexp, divisions that give powers of two), like the other steps of the
-    method, so that a member of a vmapped batch finds its event at the same time, to the last
-    bit, as the same run alone (tests/test_pauses.py, tests/test_sweep.py; `_itp_point`)."""
-    ratio = jnp.maximum(width / atol, 1.0)
-    mantissa, _ = jnp.frexp(ratio)  # ratio = mantissa 2^e, mantissa in [0.5, 1)
-    power = ratio / mantissa  # 2^e, exactly
-    power = jnp.where(mantissa == 0.5, 0.5 * power, power)
-    return (0.5 * atol) * power * 2.0**ITP_SLACK
+    """``atol / 2`` times the smallest power of two >= width / atol, times 2^`ITP_SLACK`: half
+    the bracket that bisection reaches in as many steps, plus the slack."""
+    halvings = jnp.ceil(jnp.log2(jnp.maximum(width / atol, 1.0)))
+    return (0.5 * atol) * 2.0 ** (halvings + ITP_SLACK)
 
 
 def _itp_point(state: _ITPState) -> jax.Array:
-    """The next point of the ITP method in the bracket of ``state``.
-
-    The regula-falsi point depends on the values of f, which a single run and a vmapped batch
-    may round differently in the last bit (their compiled programs differ), so it is rounded to
-    `FALSI_GRID`: such a difference (about 1e-22 s in the point, for brackets of microseconds)
-    then moves it only where it falls within that distance of a rounding boundary, about once in
-    10^8 points. And no product meets a sum directly (the point is a - g_a w / (g_b - g_a)): a
-    compiler may fuse such a pair into one fused multiply-add in one program and not in the
-    other."""
+    """The next point of the ITP method in the bracket of ``state``: the regula-falsi point,
+    nudged towards the midpoint (truncation) and kept within ``reach`` of it (projection)."""
     a, b, ga, gb = state.lower, state.upper, state.g_lower, state.g_upper
     half = 0.5 * (a + b)
     width = b - a
     radius = jnp.maximum(state.reach - 0.5 * width, 0.0)
-    nudge = jnp.maximum(state.kappa * (width * width), FALSI_GRID)  # at least one grid step
+    nudge = state.kappa * (width * width)
     secant = gb != ga
     falsi = jnp.where(secant, a - (ga * width) / jnp.where(secant, gb - ga, 1.0), half)
-    falsi = a + jnp.round((falsi - a) / FALSI_GRID) * FALSI_GRID
     sigma = jnp.sign(half - falsi)
     truncated = jnp.where(nudge <= jnp.abs(half - falsi), falsi + sigma * nudge, half)
     point = jnp.where(jnp.abs(truncated - half) <= radius, truncated, half - sigma * radius)
@@ -181,14 +166,19 @@ def _itp_point(state: _ITPState) -> jax.Array:
 class _Resumable(diffrax.AbstractStepSizeController):
     """The user's step-size controller, remembering the step it proposes next: state (inner
     state, next step [s]). A paused segment hands both to the next solve, which so continues
-    with the very steps it would have taken without the pause."""
+    with the very steps it would have taken without the pause. It also holds the segment's first
+    step [s] (``first_step``), which `diffrax.diffeqsolve` then takes without a ``dt0`` of its
+    own: its check of a given ``dt0`` is a host callback, which would keep the compiled solve out
+    of JAX's persistent compilation cache."""
 
     controller: diffrax.AbstractStepSizeController
+    first_step: jax.Array | None = None
 
     def wrap(self, direction):
-        return _Resumable(self.controller.wrap(direction))
+        return _Resumable(self.controller.wrap(direction), self.first_step)
 
     def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        dt0 = self.first_step if dt0 is None else dt0
         tnext, inner = self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)
         return tnext, (inner, tnext - t0)
 
@@ -289,9 +279,10 @@ def padded_times(ts, block: int) -> jax.Array:
     return jnp.concatenate([ts, jnp.full(-ts.shape[0] % block, jnp.inf, ts.dtype)])
 
 
-def initial_carry(s: _Setup, y0, initial_step) -> _Carry:
+def initial_carry(s: _Setup, y0, initial_step, invalid) -> _Carry:
     """The carry before the first segment: at t0, nothing in contact, the balls with
-    delta_r > 0 engaged, no outputs written, no pause."""
+    delta_r > 0 engaged, no outputs written, no pause; done at once, with
+    `RESULTS.invalid_input`, where ``invalid`` (a rule of the run is broken)."""
     model, t0, t1, block = s.model, s.t0, s.t1, s.block
     n, n_contacts, n_balls = model.n_coordinates, len(model.contacts), model.n_switched_balls
     blocks = s.ts.shape[0] // block
@@ -317,8 +308,8 @@ def initial_carry(s: _Setup, y0, initial_step) -> _Carry:
         peaks=no_peaks(model, s.stops.shape[:1]),
         integrals=jnp.zeros((s.stops.shape[0], INTEGRALS)),
         fatigue=jnp.zeros((s.stops.shape[0], fatigue_size(model, s.recording.fatigue))),
-        done=jnp.asarray(False),
-        result=RESULTS.successful,
+        done=invalid,
+        result=RESULTS.where(invalid, RESULTS.invalid_input, RESULTS.successful),
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
         control=None,
@@ -354,11 +345,13 @@ def _solve(s: _Setup, c: _Carry, t_stop, args):
         eqx.tree_at(lambda r: r.start, s.recording, start, is_leaf=lambda x: x is None),
         c.t,
         t_stop,
-        dt0,
+        None,  # the controller's first_step
         c.y,
         args=args,
         saveat=diffrax.SaveAt(t1=True, dense=True, solver_state=True, controller_state=True),
-        stepsize_controller=s.controller,
+        stepsize_controller=eqx.tree_at(
+            lambda r: r.first_step, s.controller, dt0, is_leaf=lambda x: x is None
+        ),
         event=s.event,
         max_steps=s.segment_steps,
         throw=False,
@@ -643,29 +636,15 @@ def first_contact_peaks(valid, index, peak, peak_time):
 
 
 def slot(s: _Setup, c: _Carry, index):
-    """One slot of the segment loop: `segment`; under `jax.vmap`, once every member of the batch
-    is done, what `segment` gives a finished member (the same carry, an unused record) without
-    solving, so that the slots a batch leaves unused cost next to nothing."""
+    """One slot of the segment loop: `segment`, or, once the run (under `jax.vmap`: every member
+    of the batch) is done, what `segment` gives a finished member (the same carry, an unused
+    record) without solving, so that the slots a run leaves unused cost next to nothing."""
 
     def idle(c, index):
         none, nan = jnp.zeros_like(c.in_contact), jnp.full((), jnp.nan, c.t.dtype)
         span = _Span(none, none, jnp.full((), -jnp.inf, c.t.dtype), nan)
         return c, _no_onset(c.t) + (c.t, jnp.asarray(False), span)
 
-    return jax.lax.cond(_batch_runs(c.done), functools.partial(segment, s), idle, c, index)
-
-
-@jax.custom_batching.custom_vmap
-def _batch_runs(done):
-    """True: a single run's slot always runs `segment` (a finished run's slot is a zero-length
-    solve; a branch on ``done`` here made XLA round the single run differently from the same
-    point as a batch member, which tests/test_pauses.py checks). Under `jax.vmap`: whether any
-    member of the batch is not ``done``, unbatched, so that the `jax.lax.cond` stays a branch
-    (with a batched predicate it would evaluate both)."""
-    return jnp.asarray(True)
-
-
-@_batch_runs.def_vmap
-def _batch_runs_batched(axis_size, in_batched, done):
-    (batched,) = in_batched
-    return (eqxi.unvmap_any(~done) if batched else _batch_runs(done)), False
+    # unbatched under vmap, so that the conditional stays a branch (a batched predicate would
+    # evaluate both)
+    return jax.lax.cond(eqxi.unvmap_any(~c.done), functools.partial(segment, s), idle, c, index)

@@ -42,8 +42,6 @@ import optimistix as optx
 
 from .. import _checks
 from .._checks import is_concrete
-from .._forms import held_forms, output_forms
-from ..compile import jit, kernel_by_kernel, trace_state_clean
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
@@ -68,6 +66,7 @@ from ._segment import (
     resumable,
     slot,
 )
+from ._options import SolveOptions
 from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
@@ -80,7 +79,7 @@ STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pau
 
 
 def default_solver() -> diffrax.AbstractSolver:
-    """Tsit5: on the paper's case it is the fastest at equal accuracy (README, benchmarks)."""
+    """Tsit5: on the paper's case it is the fastest at equal accuracy (docs/performance.md)."""
     return diffrax.Tsit5()
 
 
@@ -90,11 +89,20 @@ def kvaerno5(newton_rtol=1e-2, newton_atol=1e-5) -> diffrax.Kvaerno5:
     The step error control (``simulate``'s rtol, atol) still sets the accuracy; a Newton
     tolerance as tight as the step tolerance makes the iteration fail at sharp force changes and
     multiplies rejected steps. benchmarks/run.py checks its accuracy against a run at 1000x
-    tighter tolerances; README's benchmark table gives its steps and cost.
+    tighter tolerances; docs/performance.md gives its steps and cost.
     """
     return diffrax.Kvaerno5(
         root_finder=diffrax.VeryChord(rtol=newton_rtol, atol=newton_atol, norm=optx.max_norm)
     )
+
+
+def default_controller(rtol=RTOL, atol=ATOL) -> diffrax.PIDController:
+    """The step-size control `simulate` uses by default: diffrax's `PIDController` with
+    proportional and integral coefficients 0.3, which reject fewer steps than a plain I
+    controller on the paper's case with impact, and the error tolerances ``rtol`` and ``atol``
+    on the state (m, rad, m/s). Other tolerances compile nothing new."""
+    rtol, atol = _checked_tolerances(rtol, atol)
+    return diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
 
 def simulate(
@@ -102,83 +110,51 @@ def simulate(
     t1: float,
     ts=None,
     *,
-    t0: float = 0.0,
     solver: diffrax.AbstractSolver | None = None,
-    rtol: float = RTOL,
-    atol: float = ATOL,
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
     max_steps: int = 200_000,
-    max_segments: int | None = None,
-    segment_steps: int | None = None,
-    time_cells: int = 64,
-    window_edges: tuple = (),
-    output_block: int | None = None,
-    fatigue: bool = True,
     throw: bool = True,
     progress: str | None = None,
-    adjoint: diffrax.AbstractAdjoint | None = None,
+    options: SolveOptions | None = None,
 ) -> Solution:
-    """Integrate the equations of motion (Eq. 36) from ``t0`` to ``t1`` [s].
+    """Integrate the equations of motion (Eq. 36) from ``options.t0`` (default 0) to ``t1`` [s].
 
     Args:
         model: a `Mechanism` (e.g. `jaxbearing.cases.xu2014()`); starts from ``model.q0, qd0``.
         t1: final time [s], finite, > t0.
-        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points). Called
-            outside any transformation, up to `OUTPUT_BUCKET` of them share one compiled solve
-            (`_bucketed`).
+        ts: output times, 1-D, finite, increasing, within [t0, t1] (default 1001 points). Up to
+            `OUTPUT_BUCKET` of them share one compiled solve (`_bucketed`).
         solver: a diffrax solver (default `default_solver()`, Tsit5); `kvaerno5()` for the
             stiff solver.
-        rtol, atol: error control of the PID step-size controller (state in m, rad, m/s);
-            values of the compiled solve, like ``max_steps``: other values compile nothing.
-        stepsize_controller: overrides the default `PIDController(rtol, atol, pcoeff=0.3,
-            icoeff=0.3)` (the PI terms reject fewer steps than a plain I controller on the
-            paper's case with impact; README's benchmark table).
+        stepsize_controller: a diffrax step-size controller; default `default_controller()`
+            (rtol 1e-8, atol 1e-10). Its rtol and atol are values of the compiled solve, like
+            ``max_steps``: other values compile nothing.
+        adjoint: how diffrax differentiates each segment. The default (None) is
+            `diffrax.RecursiveCheckpointAdjoint` storing every step of a segment (`stored_steps`
+            says why), which serves `jax.grad` and `jax.jacrev` (reverse mode), and becomes
+            `diffrax.ForwardMode()` when `simulate` is traced under `jax.jacfwd` or `jax.jvp`
+            (forward mode, the cheaper for a few parameters; `jaxbearing.sensitivity`). Around
+            your own `jax.jit` (``jax.jacfwd(jax.jit(f))``) pass ``adjoint=diffrax.ForwardMode()``.
         max_steps: step limit of each segment (between events and stops; its pauses count
             together), an integer >= 1.
-        max_segments: segments allowed beyond the stops (each contact onset and separation,
-            each engagement and release of a paper-force ball, and each pause starts one); the
-            run fails if it needs more. Default: `default_max_segments`.
-        segment_steps: steps after which a segment pauses; the next iteration of the segment
-            loop resumes it with the step-size controller's state and proposed step, so the
-            solution is the same, to the last bit, whatever the pauses. A segment keeps the
-            interpolants of its steps (diffrax's dense output, ``segment_steps`` rows) and
-            evaluates the output times inside it from them. Under `jax.vmap` the members run
-            in lock-step, segment by segment: a member that reached an event waits for the
-            others at most ``segment_steps`` steps, not until the longest segment of the batch
-            ends, which is what makes batches (sweeps) fast. Reverse mode stores every step of
-            a segment (`stored_steps`), so its memory grows with ``segment_steps``. None (the
-            default): `SEGMENT_STEPS`; at most ``max_steps``. `jaxbearing.sweep` pauses every
-            ``jaxbearing._sweep.SEGMENT_STEPS`` steps.
-        time_cells: number of equal intervals of [t0, t1] at whose ends segments also stop,
-            which keeps vmapped batches aligned in time (module docstring); 1 for none. Each
-            costs a restart of the solver.
-        window_edges: further stops [s] (times at which segments end), so that
-            `jaxbearing.metrics` and `jaxbearing.life` can use them as window edges (a window's
-            edges must be stops; t0, `WINDOW_START`, t1 and the time cells' ends always are). A
-            tuple: its length is part of the compiled solve.
-        output_block: output times a segment evaluates from its interpolants and writes
-            together; default `default_output_block`. Any value gives the same outputs.
-        fatigue: record `Solution.fatigue`, the integrals the bearing's life reads
-            (`jaxbearing.life`; README gives their cost); False: ``sol.fatigue`` is None and
-            the life functions refuse the solution.
-        throw: raise `SimulationError` (or an equinox runtime error under transformations) on
-            failure; with False, inspect ``sol.result`` and ``sol.t_final``.
+        throw: raise on failure (`SimulationError`; a `ValueError` naming the rule for an invalid
+            parameter value); with False, inspect ``sol.result`` (`RESULTS`) and ``sol.t_final``.
+            The compiled solve itself raises nothing: failures come back as result codes.
         progress: a label for one progress bar (tqdm, on stderr) over [t0, t1], or None. Another
             label compiles nothing.
-        adjoint: how diffrax differentiates each segment. The default (None) is
-            `diffrax.RecursiveCheckpointAdjoint` storing every step of a segment
-            (``checkpoints=segment_steps``, also given to one without ``checkpoints``:
-            `stored_steps` says why), which serves `jax.grad` and `jax.jacrev` (reverse mode),
-            and becomes `diffrax.ForwardMode()` when `simulate` is traced
-            under `jax.jacfwd` or `jax.jvp` (forward mode, the cheaper for a few parameters;
-            `jaxbearing.sensitivity`). Forward mode around your own `jax.jit` of `simulate`
-            (``jax.jacfwd(jax.jit(f))``) traces `simulate` before the jvp: pass
-            ``adjoint=diffrax.ForwardMode()`` there.
+        options: `SolveOptions` (start time, window edges, fatigue records, segmentation);
+            None: the defaults.
     """
     _checks.require_x64()
     if not isinstance(model, Mechanism):
         raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    _checks.raise_if_concrete(_checks.finite_leaves(model))  # NaN passes the other rules
+    model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
+    options = _checked_options(options)
+    t0, window_edges = options.t0, options.window_edges
+    fatigue = options.fatigue is not False
+    max_segments, segment_steps = options.max_segments, options.segment_steps
+    time_cells, output_block = options.time_cells, options.output_block
     span = (t0, t1)  # as given: Python numbers stay concrete under the caller's jit
     t0, t1 = _checked_span(t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
@@ -202,14 +178,7 @@ def simulate(
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
     solver = default_solver() if solver is None else solver
-    if stepsize_controller is None:
-        rtol, atol = _checked_tolerances(rtol, atol)
-        stepsize_controller = diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
-    elif is_concrete(rtol, atol) and (rtol, atol) != (RTOL, ATOL):
-        raise ValueError(
-            "rtol and atol set the default step-size controller; with stepsize_controller, give "
-            "them to that controller."
-        )
+    stepsize_controller = _checked_controller(stepsize_controller)
     solver = _with_root_tolerances(solver, stepsize_controller)
     stops = window_stops(window_edges)
     sol = _with_adjoint(
@@ -232,7 +201,7 @@ def simulate(
         None if progress is None else label_key(progress),
     )
     if throw:
-        sol = _raise_on_failure(sol, t1)
+        sol = _raise_on_failure(sol, t1, lambda: start_rules(model, t0, t1, ts))
     return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
 
 
@@ -243,7 +212,7 @@ def _bucketed(ts):
     that many output times share one compiled solve; else ``ts``. Each output time's values come
     from the interpolant of the step that covers it, so the padding changes none of them."""
     n = ts.shape[0]
-    if n >= OUTPUT_BUCKET or not trace_state_clean():
+    if n >= OUTPUT_BUCKET or not is_concrete(ts):
         return ts
     return jnp.concatenate([ts, jnp.broadcast_to(ts[-1], (OUTPUT_BUCKET - n,))])
 
@@ -267,7 +236,7 @@ def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = N
     """Segments `simulate` allows by default beyond its stops: for events, 1 for a model without
     contacts or paper-force balls, else 64 + `EVENT_RATE` (t1 - t0); with ``segment_steps``, for
     pauses, `STEP_RATE` (t1 - t0) / segment_steps more. Rounded up to a power of two, so that
-    runs of similar spans share one compiled solve (a traced span counts as 1 s). README gives
+    runs of similar spans share one compiled solve (a traced span counts as 1 s). docs/performance.md gives
     the event counts of the paper's case."""
     events = bool(model.contacts) or bool(model.n_switched_balls)
     span = max(float(t1) - float(t0) if is_concrete(t1, t0) else 1.0, 0.0)
@@ -287,7 +256,7 @@ def stored_steps(adjoint, segment_steps: int):
     With fewer checkpoints than steps, diffrax's reverse pass recomputes steps from the stored
     ones, in another compiled program than the forward pass: its rounding differs in the last
     bits, and the step-size controller then accepts or rejects other steps than the forward pass
-    did, so the gradient mixes two trajectories (README, *Derivatives*, gives how far off;
+    did, so the gradient mixes two trajectories (docs/gradients.md gives how far off;
     tests/test_derivatives.py). Stored, the reverse pass replays nothing."""
     checkpointed = isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint)
     if adjoint is None or (checkpointed and adjoint.checkpoints is None):
@@ -315,6 +284,31 @@ def _with_adjoint(adjoint, segment_steps, solve, *args):
         ) from err
 
 
+def _checked_options(options) -> SolveOptions:
+    """``options``, or the default `SolveOptions`; a `TypeError` for anything else."""
+    if options is None:
+        return SolveOptions()
+    if not isinstance(options, SolveOptions):
+        raise TypeError(f"options must be a jaxbearing.SolveOptions; got {type(options).__name__}.")
+    return options
+
+
+def _checked_controller(controller):
+    """``controller`` (default `default_controller()`) with its rtol and atol, where it has them,
+    checked and made float64 arrays, so that other tolerances reuse the compiled solve."""
+    if controller is None:
+        return default_controller()
+    if not isinstance(controller, diffrax.AbstractStepSizeController):
+        raise TypeError(
+            "stepsize_controller must be a diffrax step-size controller (e.g. "
+            f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
+        )
+    if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
+        tolerances = _checked_tolerances(controller.rtol, controller.atol)
+        controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
+    return controller
+
+
 def _check_max_steps(max_steps):
     """A `ValueError` unless ``max_steps`` is an integer >= 1."""
     if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
@@ -338,13 +332,17 @@ def window_stops(window_edges) -> jax.Array:
     return stops
 
 
-def checked_start(model, t0, t1, more=()):
-    """The initial state [q0, qd0], carrying the model's rules, t1 > t0 and ``more`` rules
-    (checked at run time, under jit, vmap and grad: `_checks.enforce`)."""
+def start_rules(model, t0, t1, ts=None) -> list:
+    """Every rule a run must meet (`_checks`): the model's at ``t0``, t1 > t0, and the output
+    times ``ts`` finite, increasing and within [t0, t1]."""
     rules = model.violations(t0)
     rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
-    rules.extend(more)
-    return _checks.enforce(jnp.concatenate([model.q0, model.qd0]), rules)
+    if ts is not None:
+        rules.append(
+            ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
+             "ts must be finite, increasing and lie within [t0, t1]", ts)
+        )
+    return rules
 
 
 def _checked_span(t0, t1):
@@ -356,9 +354,9 @@ def _checked_span(t0, t1):
     t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
     if is_concrete(t0, t1):
         for name, t in (("t0", t0), ("t1", t1)):
-            if t.ndim or not jnp.isfinite(t):
+            if t.ndim or not np.isfinite(np.asarray(t)):
                 raise ValueError(f"{name} must be a finite number [s]; got {name} = {t}.")
-        if not t1 > t0:
+        if not np.asarray(t1) > np.asarray(t0):
             raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
         return t0, t1
     finite = jnp.isfinite(t0) & jnp.isfinite(t1)
@@ -370,12 +368,13 @@ def _checked_tolerances(rtol, atol):
     `ValueError` now if they are concrete and not finite, negative, or both zero."""
     rtol, atol = jnp.asarray(rtol, jnp.float64), jnp.asarray(atol, jnp.float64)
     if is_concrete(rtol, atol):
-        for name, x in (("rtol", rtol), ("atol", atol)):
-            if x.ndim or not (jnp.isfinite(x) and x >= 0):
+        values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}
+        for name, x in values.items():
+            if x.ndim or not (np.isfinite(x) and x >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
-        if not rtol < 1:
-            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {rtol}.")
-        if not rtol + atol > 0:
+        if not values["rtol"] < 1:
+            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {values['rtol']}.")
+        if not values["rtol"] + values["atol"] > 0:
             raise ValueError("rtol and atol must not both be zero: the step control needs one.")
     return rtol, atol
 
@@ -413,25 +412,19 @@ def _checked_ts(ts, t0, t1):
     return ts
 
 
-@jit
+@eqx.filter_jit
 def _simulate(
     model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells,
     extra_stops, block, fatigue, progress, adjoint,
 ):
-    y0 = checked_start(
-        model, t0, t1,
-        [((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
-          "ts must be finite, increasing and lie within [t0, t1]", ts)],
-    )
+    invalid = _checks.any_violated(start_rules(model, t0, t1, ts))
+    y0 = jnp.concatenate([model.q0, model.qd0])
     n = model.n_coordinates
-    # cos and sin through the conditional only where the solver's loops compile whole, not for
-    # an implicit solver, whose loops call LAPACK (`jaxbearing._forms`)
-    held = not isinstance(solver, diffrax.AbstractImplicitSolver)
 
     def vector_field(t, y, args):
         approach, _, engaged = args
         q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged, held=held)])
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
 
     setup = _Setup(
         model=model,
@@ -451,9 +444,8 @@ def _simulate(
         adjoint=adjoint,
     )
     slots = jnp.arange(setup.stops.shape[0] + max_segments)
-    with held_forms(held):  # the steps' records and the events as the vector field
-        init = initial_carry(setup, y0, INITIAL_STEP)
-        final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
+    init = initial_carry(setup, y0, INITIAL_STEP, invalid)
+    final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
     onset_t, onset_v, onset_i, onset_valid, t_reached, used, span = records
     end, peak, peak_time = contact_spans(onset_i, onset_valid, t_reached, span)
     t_final = jnp.max(jnp.where(used, t_reached, t0))
@@ -520,7 +512,7 @@ def _outputs(
     def at(t, y, a, e):
         # outputs at one time
         q, qd = y[:n], y[n:]
-        qdd = _accelerations(model, t, q, qd, a, e, cheap=True)
+        qdd = _accelerations(model, t, q, qd, a, e)
         drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
         out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
         out.update(_forces(model, t, q, qd, a, e))
@@ -533,8 +525,7 @@ def _outputs(
         keep = lambda x, rest: _where_rows(reached, x, rest)  # noqa: E731
         return keep(y, start), keep(a, 0.0), keep(e, False)
 
-    with output_forms():
-        o = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
+    o = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
     zeros = jnp.zeros_like(ts)
     return Solution(
         ts=ts,
@@ -590,15 +581,21 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)
 
     def body(i, outputs):
-        start = jnp.minimum(kernel_by_kernel(i) * batch, T - batch).astype(jnp.int32)
+        start = jnp.minimum(i * batch, T - batch).astype(jnp.int32)
         put = lambda buffer, x: jax.lax.dynamic_update_slice_in_dim(buffer, x, start, 0)
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
     return jax.lax.fori_loop(0, -(-T // batch), body, outputs)
 
 
-def _raise_on_failure(sol: Solution, t1) -> Solution:
+def _raise_on_failure(sol: Solution, t1, rules) -> Solution:
+    """``sol``, or the error its result code stands for: a `SimulationError` saying when and what
+    to change; for `RESULTS.invalid_input` the broken rule of ``rules()`` (`start_rules`), a
+    `ValueError` where the values are concrete. Under your own transformations (traced results)
+    the same messages come from `eqx.error_if` checks around the solve."""
     failed = sol.result != RESULTS.successful
+    if is_concrete(failed) and bool(sol.result == RESULTS.invalid_input):
+        _checks.raise_if_concrete(rules())
     if is_concrete(failed, sol.t_final):
         if bool(failed):
             located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
@@ -621,5 +618,6 @@ def _raise_on_failure(sol: Solution, t1) -> Solution:
                 f"{RESULTS[sol.result]}{cause} Pass throw=False to inspect the partial solution."
             )
         return sol
-    # under jit/vmap/grad: the failing member's own message (see `RESULTS`)
+    # under jit/vmap/grad: the broken rule's message, else the failing member's (`RESULTS`)
+    sol = _checks.enforce(sol, rules())
     return sol.result.error_if(sol, failed)

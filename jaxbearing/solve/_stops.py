@@ -6,7 +6,10 @@ from __future__ import annotations
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
+import optimistix as optx
 
+# what a root finder made by `diffrax.with_stepsize_controller_tols` holds in place of its tolerances
+_FROM_CONTROLLER = diffrax.with_stepsize_controller_tols(optx.Chord)().rtol
 OUTPUT_BLOCK = 64  # output times a segment evaluates and writes together (`default_output_block`)
 
 def _stops(t0, t1, time_cells, extra):
@@ -37,7 +40,7 @@ def _with_root_tolerances(solver, controller):
         return solver
     names = [
         a for a in ("rtol", "atol", "norm")
-        if getattr(solver.root_finder, a) is diffrax._root_finder.use_stepsize_tol
+        if getattr(solver.root_finder, a) is _FROM_CONTROLLER
     ]
     if not names:
         return solver

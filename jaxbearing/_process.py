@@ -1,0 +1,71 @@
+"""The two process-wide settings jaxbearing makes on import, each with its opt-out.
+
+1. XLA:CPU compiles the solver's loops whole. XLA:CPU runs a program as a sequence of kernel
+   calls, each with a fixed cost, except the while loops that its small-while-loop pass compiles
+   into one function; by default only loops that touch less than about a kilobyte qualify. The
+   solver's step loop, thousands of iterations of a few hundred scalar operations, is far above
+   that limit, and run kernel by kernel it spends most of its time calling kernels. Importing
+   jaxbearing raises the limit (`LOOP_KERNELS_FLAG`), which makes the paper's case several times
+   faster on a CPU (docs/performance.md gives the figure and the command that measures it);
+   results agree with and without it to the solver's tolerance. The limit is an entry of XLA's
+   ``xla_backend_extra_options``, which XLA reads from the ``XLA_FLAGS`` environment variable
+   once, when JAX starts its backends (at the first computation): it takes effect when
+   jaxbearing is imported before the process's first JAX computation (``import jax;
+   jax.config.update(...)`` before it is fine: that starts no backend); imported later, it
+   changes nothing and results are the same, only slower. Other backends ignore it. A
+   ``XLA_FLAGS`` that already sets ``xla_backend_extra_options`` is left as it is.
+   Opt-out: ``JAXBEARING_KEEP_XLA_FLAGS=1``.
+
+2. JAX's persistent compilation cache, in `cache_dir` (``$XDG_CACHE_HOME/jaxbearing/jax``,
+   by default ``~/.cache/jaxbearing/jax``): a process that meets a solve compiled before on this
+   machine loads it instead of compiling it again (the compiled solve holds no host callback,
+   which the cache would refuse). Only where the process has not chosen a cache folder itself
+   (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``). Opt-out:
+   ``JAXBEARING_NO_COMPILATION_CACHE=1``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import jax
+
+LOOP_KERNELS_FLAG = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000"
+OPT_OUT = "JAXBEARING_KEEP_XLA_FLAGS"
+CACHE_OPT_OUT = "JAXBEARING_NO_COMPILATION_CACHE"
+
+
+def _true(name: str) -> bool:
+    return os.environ.get(name, "").strip().lower() in ("1", "true", "yes", "on")
+
+
+def apply_loop_kernels() -> bool:
+    """Append `LOOP_KERNELS_FLAG` to ``XLA_FLAGS`` (setting 1 of the module docstring); whether
+    it is there now."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    if LOOP_KERNELS_FLAG in flags.split():
+        return True
+    if _true(OPT_OUT) or "--xla_backend_extra_options=" in flags:
+        return False
+    os.environ["XLA_FLAGS"] = f"{flags} {LOOP_KERNELS_FLAG}".strip()
+    return True
+
+
+def cache_dir() -> Path:
+    """The folder of jaxbearing's persistent compilation cache: ``$XDG_CACHE_HOME/jaxbearing/jax``
+    (``~/.cache/jaxbearing/jax`` where XDG_CACHE_HOME is unset)."""
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxbearing" / "jax"
+
+
+def apply_compilation_cache() -> Path | None:
+    """Turn JAX's persistent compilation cache on in `cache_dir` (setting 2 of the module
+    docstring); the folder in use, or None where the opt-out is set."""
+    if _true(CACHE_OPT_OUT):
+        return None
+    chosen = jax.config.jax_compilation_cache_dir or os.environ.get("JAX_COMPILATION_CACHE_DIR")
+    if chosen:
+        return Path(chosen)
+    jax.config.update("jax_compilation_cache_dir", str(cache_dir()))
+    return cache_dir()
