@@ -114,7 +114,9 @@ def main(out, t1, sweeps, solver=None, one_loop=False):
             "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, n),
             "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, n),
         }
-        settings = dict(solve="one_loop") if one_loop else dict(max_segments=max_segments, solver=solver)
+        settings = dict(solve="one_loop")
+        if not one_loop:
+            settings = dict(options=jb.SolveOptions(max_segments=max_segments), solver=solver)
         run = lambda: jb.sweep(model, grid, t1=t1, progress=False, chunk_size=n * n, **settings)  # noqa: E731
         start = time.perf_counter()
         wall, ds, events = _profiled(run, Path(out) / f"sweep{n * n}")

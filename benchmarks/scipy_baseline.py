@@ -466,9 +466,8 @@ def main(argv=None):
     table5 = np.searchsorted(ts, times - 1e-12)
     rtols = [float(r) for r in args.rtols.split(",")]
     ref_rtol = min(rtols) * 1e-3
-    reference = jb.simulate(
-        model, args.t1, ts, rtol=ref_rtol, atol=ref_rtol / 100, max_steps=2_000_000
-    )
+    tight = jb.default_controller(rtol=ref_rtol, atol=ref_rtol / 100)
+    reference = jb.simulate(model, args.t1, ts, stepsize_controller=tight, max_steps=2_000_000)
     print(f"reference: jaxbearing Tsit5 at rtol {ref_rtol:g}, atol {ref_rtol / 100:g}, "
           f"{int(reference.num_steps)} steps, {int(reference.contacts.count)} onsets")
 

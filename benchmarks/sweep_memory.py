@@ -33,12 +33,13 @@ def memory(chunk: int, samples: int, t1: float = 0.2):
     model = jb.cases.xu2014(impact=True)
     params = {"bearing.clearance": np.full(chunk, 40e-6)}
     metrics = None if samples <= 2 else {"sampled_peak_ball_load": lambda sol: jax.numpy.max(sol.ball_loads)}
-    request = arguments.request(model, params, metrics, True, t1, np.linspace(0.0, t1, samples), {})
+    request = arguments.request(model, params, metrics, False, t1, np.linspace(0.0, t1, samples), {})
     mesh = jax.make_mesh((1,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     runner = kernel.ChunkRunner(model, request, mesh, chunk)
     rows = jax.device_put(request.points, runner.split)
     lowered = kernel.run_chunk.lower(
-        eqx.combine(runner.dynamic, runner.static), rows, runner.ts, runner.names, runner.metric_items, runner.t1, runner.sim_items, mesh
+        eqx.combine(runner.dynamic, runner.static), rows, runner.ts, runner.names, runner.metric_items,
+        runner.t1, runner.sim_items, runner.solve, mesh,
     )
     return lowered.compile().compiled.memory_analysis()  # equinox wraps jax's Compiled
 
