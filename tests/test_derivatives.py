@@ -12,6 +12,7 @@ stiffness needs it (its smaller steps scatter by 2 %): no step is trusted withou
 """
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -89,9 +90,9 @@ def check_user_transforms_and_vmap(c):
         sol = jb.simulate(jb.paths.replace(c.model, {name: x}), c.t1, c.ts, adjoint=adjoint, **TIGHT)
         return c.metric(sol)
 
-    assert float(jb.jit(jax.grad(f))(x0)) == pytest.approx(c.reference[name], rel=AGREE)
+    assert float(eqx.filter_jit(jax.grad(f))(x0)) == pytest.approx(c.reference[name], rel=AGREE)
     forward = jax.jacfwd(lambda x: f(x, diffrax.ForwardMode()))
-    batched = jb.jit(jax.vmap(forward))(jnp.array([x0, c.second]))
+    batched = eqx.filter_jit(jax.vmap(forward))(jnp.array([x0, c.second]))
     assert float(batched[0]) == pytest.approx(c.reference[name], rel=AGREE)
     if c.second == x0:  # with impact: the repeated point, against the finite difference too
         assert float(batched[1]) == pytest.approx(c.reference[name], rel=AGREE)
@@ -108,7 +109,9 @@ def test_reverse_mode_replays_no_step():
     take other steps than the forward pass, and came out 3e-2 off forward mode (whether a
     recomputed step flips is chance: at 2 or 3 ms it did not). `simulate` stores every step of a
     segment (`stored_steps`); the two modes then differentiate the same steps but for their
-    programs' rounding (4e-4 measured), hence 2e-3."""
+    programs' rounding, which can still flip a step of the controller (measured: 4e-4 with the
+    XLA:CPU options of f7a5625, 6.5e-3 with XLA's defaults), hence 1e-2, below the 3e-2 of the
+    replayed steps."""
     model, name = jb.cases.xu2014(impact=False, ball_force="smooth"), "bearing.clearance"
     t1, ts = 0.005, jnp.linspace(0.0, 0.005, 11)
 
@@ -118,9 +121,9 @@ def test_reverse_mode_replays_no_step():
         return sol.q[5, 3]
 
     x0 = float(jb.paths.get(model, name))
-    reverse = float(jb.jit(jax.grad(at))(x0))
+    reverse = float(eqx.filter_jit(jax.grad(at))(x0))
     forward = float(jax.jacfwd(lambda x: at(x, diffrax.ForwardMode()))(x0))
-    assert reverse == pytest.approx(forward, rel=2e-3)
+    assert reverse == pytest.approx(forward, rel=1e-2)
 
 
 @pytest.mark.slow  # 45 s: two compiles of the solve (reverse and forward mode)
@@ -142,7 +145,7 @@ def test_output_samples_differentiate_alike_in_both_modes():
 
     at = lambda x, adjoint=None: f(jb.paths.replace(model, {name: x}), adjoint)
     x0 = float(jb.paths.get(model, name))
-    reverse = float(jb.jit(jax.grad(at))(x0))
+    reverse = float(eqx.filter_jit(jax.grad(at))(x0))
     forward = float(jax.jacfwd(lambda x: at(x, diffrax.ForwardMode()))(x0))
     assert reverse == pytest.approx(forward, rel=1e-2)
 
