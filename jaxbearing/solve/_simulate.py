@@ -86,8 +86,8 @@ def default_solver() -> diffrax.AbstractSolver:
 def kvaerno5(newton_rtol=1e-2, newton_atol=1e-5) -> diffrax.Kvaerno5:
     """Kvaerno5, the stiff (ESDIRK) solver, with a loose simplified-Newton iteration.
 
-    The step error control (``simulate``'s rtol, atol) still sets the accuracy; a Newton
-    tolerance as tight as the step tolerance makes the iteration fail at sharp force changes and
+    The step error control (the step-size controller's rtol, atol) still sets the accuracy; a
+    Newton tolerance as tight as the step tolerance makes the iteration fail at sharp force changes and
     multiplies rejected steps. benchmarks/run.py checks its accuracy against a run at 1000x
     tighter tolerances; docs/performance.md gives its steps and cost.
     """
