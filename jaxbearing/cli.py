@@ -15,8 +15,9 @@ and writes into ``--out`` (default ``results/xu2014``):
 
 Each case's files (and summary.json, and the figures with the cases done so far) are written as
 soon as that case is done, each atomically, so an interrupted run keeps what it had computed.
-The console shows one progress bar per case (stderr), the summaries and Table 5; a warning says
-when --t1 stops before the slider first strikes the target (both cases are then the same).
+The console shows what each case is doing and how long it took (stderr), the summaries and
+Table 5; a warning says when --t1 stops before the slider first strikes the target (both cases
+are then the same).
 
 ``--config FILE`` reads parameter overrides of the case from a TOML file, in SI units, e.g.
 
@@ -37,8 +38,6 @@ The physics and the numbers live in `jaxbearing.report`; this module only orches
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import math
 import sys
 import time
@@ -218,23 +217,26 @@ def _run_case(args, model, ts, label):
 
     from . import SimulationError, default_controller, report, simulate
 
-    def solve(progress):
+    def solve():
         controller = default_controller(args.rtol, args.atol)
-        sol = simulate(model, args.t1, ts, stepsize_controller=controller, progress=progress)
-        return jax.block_until_ready(sol)
+        return jax.block_until_ready(simulate(model, args.t1, ts, stepsize_controller=controller))
 
+    # no progress bar inside the solve: its host callbacks would keep the compiled solve out of
+    # JAX's persistent compilation cache, and the run itself takes a fraction of a second
+    print(f"{label}: compiling and solving 0-{args.t1:g} s (a compiled solve is loaded from the "
+          "compilation cache when this machine has run it before) ...", file=sys.stderr, flush=True)
     start = time.perf_counter()
     try:
-        sol = solve(label)
+        sol = solve()
     except SimulationError as err:
         print(f"{label}: {err}", file=sys.stderr)
         return None
     wall_first = time.perf_counter() - start
+    print(f"{label}: done in {wall_first:.1f} s", file=sys.stderr, flush=True)
     wall_second = None
     if not args.no_rerun:
         start = time.perf_counter()
-        with contextlib.redirect_stderr(io.StringIO()):  # compiled already; the bar hidden
-            solve(label)
+        solve()
         wall_second = time.perf_counter() - start
     s = report.summarize(sol, report.PEAK_FROM)
     s.update(report.life_summary(sol, model, report.PEAK_FROM))
