@@ -108,8 +108,8 @@ def _check_solution(sol: Solution, bearing: int):
     if sol.fatigue is None:
         raise ValueError(
             "This solution carries no fatigue integrals (sol.fatigue is None): the life needs a "
-            "solution made by jaxbearing.simulate with its fatigue records (the default; "
-            "SolveOptions(fatigue=False) leaves them out)."
+            "solution made by jaxbearing.simulate with options=SolveOptions(fatigue=True) (its "
+            "default records them too)."
         )
     if bearing != 0:
         raise ValueError("Solutions carry the forces of the first bearing joint only (bearing=0).")
