@@ -7,10 +7,10 @@ returned by a ``violations()`` method; on top of them every floating leaf must b
 - at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
   and what is allowed, whenever the values are concrete;
 - by `jaxbearing.simulate`, because parameters also change after construction (`eqx.tree_at`,
-  sweeps, optimisers): on the host before the solve where the values are concrete, and inside
-  the compiled solve as a result code (`RESULTS.invalid_input`, no host callback, so the
-  compiled solve can be cached); a run given traced values (your own `jax.jit`, `jax.vmap`)
-  raises the rule's message with `eqx.error_if` around the solve when ``throw=True``.
+  sweeps, optimisers): inside the compiled solve as a result code (`RESULTS.invalid_input`, no
+  host callback, so the compiled solve can be cached), raised on the host after the call with
+  the rule's message (`raise_if_concrete`); a run given traced values (your own `jax.jit`,
+  `jax.vmap`) raises it with `eqx.error_if` around the solve when ``throw=True``.
 """
 
 from __future__ import annotations

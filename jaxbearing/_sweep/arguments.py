@@ -17,14 +17,7 @@ import numpy as np
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
-from ..solve import (
-    SolveOptions,
-    default_controller,
-    default_max_segments,
-    default_solver,
-    simulate,
-    simulate_one_loop,
-)
+from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
 from ..solve._simulate import _checked_controller, _checked_options, _checked_span, _checked_ts, window_stops
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)

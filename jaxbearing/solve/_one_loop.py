@@ -220,11 +220,12 @@ def _one_loop(model, t0, t1, controller, max_steps, extra_stops, fatigue):
         interpolation = _TSIT5.interpolation_cls(t0=s.t, t1=s.step_end, y0=s.y, y1=s.y, k=s.step_k)
 
         # 1. one root-finder step for the members locating an event
+        def along(t):  # the event value along the step's interpolant
+            return event_max(t, interpolation.evaluate(t), s.in_contact, s.engaged)
+
         root = s.root
         if has_events:
-            x = root.next
-            error = event_max(x, interpolation.evaluate(x), s.in_contact, s.engaged)
-            root = jax.lax.stop_gradient(itp_step(root, error))  # tangents: `_event_time`
+            root = jax.lax.stop_gradient(itp_step(root, along(root.next)))  # tangents: `_event_time`
             narrow = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
             small = jnp.abs(root.error) < EVENT_TIME_TOLERANCE
             located = s.locating & ~s.done & narrow & (small | (s.root_steps + 1 >= ROOT_STEPS))
@@ -232,9 +233,7 @@ def _one_loop(model, t0, t1, controller, max_steps, extra_stops, fatigue):
             located = jnp.zeros((), bool)
         t_event = root.upper
         if has_events:
-            t_event = _event_time(
-                lambda t: event_max(t, interpolation.evaluate(t), s.in_contact, s.engaged), t_event
-            )
+            t_event = _event_time(along, t_event)
         y_event = interpolation.evaluate(t_event)
         approach, in_contact, engaged = s.approach, s.in_contact, s.engaged
         record = (s.t, s.t, jnp.asarray(-1), jnp.asarray(False))  # no onset

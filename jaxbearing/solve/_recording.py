@@ -8,7 +8,6 @@ those points, where the step may rise above the peaks so far (`jaxbearing.soluti
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
