@@ -30,7 +30,6 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
-from jaxbearing._sweep import SEGMENT_STEPS  # noqa: E402
 from run import SWEEP_CLEARANCES, SWEEP_RESTITUTIONS, T1  # noqa: E402  (the benchmark's grid and span)
 
 TOP = 12  # kernels listed by device time
@@ -107,7 +106,7 @@ def main(out, t1, sweeps, solver=None, one_loop=False):
           f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
     _summary(events, wall)
     # the segment slots of the benchmark's full-span sweep, so that a shorter span keeps its loops
-    max_segments = jb.solve.default_max_segments(model, 0.0, T1, SEGMENT_STEPS)
+    max_segments = jb.solve.default_max_segments(model, 0.0, T1)
     for points in sweeps:
         n = int(round(points**0.5))
         grid = {

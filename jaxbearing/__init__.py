@@ -25,6 +25,7 @@ from .solution import RESULTS, Contacts, SimulationError, Solution
 from .solve import (
     SolveOptions,
     default_controller,
+    default_max_onsets,
     default_max_segments,
     default_solver,
     kvaerno5,
@@ -48,6 +49,7 @@ __all__ = [
     "SolveOptions",
     "cases",
     "default_controller",
+    "default_max_onsets",
     "default_max_segments",
     "default_solver",
     "kvaerno5",

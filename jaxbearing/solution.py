@@ -30,9 +30,13 @@ class RESULTS(diffrax.RESULTS):
     """diffrax's result codes plus the ones of the segmented solve."""
 
     max_segments_reached = (
-        "More segments than max_segments allow (each contact onset and separation, each ball "
-        "engagement and release, and with segment_steps each pause starts one). Increase "
-        "`max_segments` (jaxbearing.SolveOptions)."
+        "More iterations than max_segments x segment_steps allow (each step, accepted or "
+        "rejected, and each step of an event's root finder is one). Increase `max_segments` "
+        "(jaxbearing.SolveOptions)."
+    )
+    max_onsets_reached = (
+        "More contact onsets than max_onsets records. Increase `max_onsets` "
+        "(jaxbearing.SolveOptions)."
     )
     contact_overlap = (
         "The event found a contact switched on (its active_from) while its surfaces overlap: "
@@ -49,18 +53,18 @@ class SimulationError(RuntimeError):
 
 
 class Contacts(eqx.Module):
-    """Impact contacts, each from its onset to its end, one slot per segment (padded; read
-    ``valid``). Onsets and ends are the solve's events, located to 1e-13 s, and the peak is
+    """Impact contacts, each from its onset to its end, one slot per onset (``max_onsets`` of
+    `SolveOptions`, padded; read ``valid``). Onsets and ends are the solve's events, located to 1e-13 s, and the peak is
     the maximum of the solution over the contact's steps and their interpolants (as
     `SegmentStats`' peaks), so none of them depends on the output times.
 
-    Fields (each (number of segment slots,)):
+    Fields (each (max_onsets,)):
         time: onset times [s], NaN in unused slots.
         approach_speed: penetration rate at onset, delta_dot^(-) of Eq. 23 [m/s].
         index: which contact of ``model.contacts`` started, -1 in unused slots.
         valid: True where the slot holds an onset.
         end: when that contact ended [s]: its separation event, where the penetration has
-            fallen to -1 nm (`_segment.SEPARATION_OFFSET`: the force vanished 1 nm / separation
+            fallen to -1 nm (`_core.SEPARATION_OFFSET`: the force vanished 1 nm / separation
             speed before); NaN where it lasted to the time reached, and in unused slots.
         peak_force: the largest normal force over the contact [N], up to its end or the time
             reached; recorded for the model's first contact only, NaN for the others.
@@ -83,21 +87,21 @@ class Contacts(eqx.Module):
 
 class SegmentStats(eqx.Module):
     """Peaks and integrals of the solution over each interval between the solve's stops (t0,
-    `WINDOW_START`, the ends of the time cells, the ``window_edges`` asked for, t1), taken
-    from the solution itself: every accepted solver step and its interpolant (`_Recording`),
+    `WINDOW_START`, the ``window_edges`` asked for, t1), taken from the solution itself: every
+    accepted solver step and its interpolant (`_recording._step_stats`),
     not from the output times. `jaxbearing.metrics` combines the intervals inside a window, so
     a window's edges must be stops.
 
     Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
-    Gauss–Legendre quadrature over the step; the last step of a segment that ends at an event
-    counts only up to the event. Peaks are maxima of the interpolant: where a step may rise
+    Gauss–Legendre quadrature over the step; a step across an event counts only up to the
+    event. Peaks are maxima of the interpolant: where a step may rise
     above the interval's peak so far between those 4 points, each value is also taken at the
     vertex of the parabola through the 3 points around its largest, which is the step's maximum
     to the parabola's third-order error. Integrals are exact for integrands that are
     polynomials of degree <= 5 over each step.
 
-    Fields (C = number of stops; one entry per interval, however many segments it took, so the
-    size does not grow with the events or ``max_segments``):
+    Fields (C = number of stops; one entry per interval, so the size does not grow with the steps
+    or the events):
         t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
         peaks: (C, 3 + n_coordinates), the maxima over the interval of: the largest ball load
             of the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N],
@@ -128,13 +132,13 @@ class SegmentStats(eqx.Module):
 
 class FatigueStats(eqx.Module):
     """What the bearing's fatigue life (`jaxbearing.life`) needs, integrated over the solution
-    itself per interval between the solve's stops (t0, `WINDOW_START`, the ends of the time
-    cells, the ``window_edges`` asked for, t1), for the model's first bearing joint.
+    itself per interval between the solve's stops (t0, `WINDOW_START`, the ``window_edges``
+    asked for, t1), for the model's first bearing joint.
 
     Every integrand is weighted by the relative revolutions the rings turn, w = |omega_inner -
     omega_outer| / (2 pi) [rev/s], and integrated as `SegmentStats`' integrals are (3-point
-    Gauss–Legendre quadrature of each accepted step's interpolant, the last step of a segment
-    only up to its end). Loads Q are divided by `FORCE_SCALE` before their powers.
+    Gauss–Legendre quadrature of each accepted step's interpolant, a step across an event only
+    up to the event). Loads Q are divided by `FORCE_SCALE` before their powers.
 
     Fields (C = number of stops):
         t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
@@ -177,9 +181,10 @@ class Solution(eqx.Module):
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
         num_steps, num_rejected_steps: solver steps over all segments.
-        num_segments: segments used: one per stop interval (time cells, `WINDOW_START`,
-            ``window_edges``), plus one per event (contact onset or separation, ball engagement
-            or release) and per pause (``segment_steps``).
+        num_segments: segments of ``segment_steps`` iterations the solve used (`simulate`; 1
+            for `simulate_one_loop`).
+        num_events: events located: contact onsets and separations, ball engagements and
+            releases.
         target: index in q of the x coordinate of the impact target, body k of the model's
             first contact (`CircleContact`: the body its normal force pushes along +n); None
             for a model without impact contact (static).
@@ -204,4 +209,5 @@ class Solution(eqx.Module):
     num_steps: jax.Array
     num_rejected_steps: jax.Array
     num_segments: jax.Array
+    num_events: jax.Array
     target: int | None = eqx.field(static=True, default=None)

@@ -66,6 +66,7 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         num_steps=100,
         num_rejected_steps=7,
         num_segments=3,
+        num_events=2,
     )
 
 

@@ -26,8 +26,8 @@ PACKAGE = pathlib.Path(jb.__file__).parent
 def test_simulate_inside_a_user_jit_equals_the_top_level_call():
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 3)
-    top = jb.simulate(model, 0.002, ts, options=jb.SolveOptions(time_cells=1))
-    nested = jax.jit(lambda m: jb.simulate(m, 0.002, ts, options=jb.SolveOptions(time_cells=1)))(model)
+    top = jb.simulate(model, 0.002, ts)
+    nested = jax.jit(lambda m: jb.simulate(m, 0.002, ts))(model)
     # other XLA options round differently, and the solver amplifies that up to its accuracy
     # (the benchmark finds positions within 1e-8 m of a 1000x tighter reference; measured
     # 7e-9 here, in the rod's angle while it falls onto the race)
@@ -40,9 +40,9 @@ def test_tolerances_and_step_limit_compile_nothing_new(compiled_functions):
     and tighter tolerances take more steps."""
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 3)
-    loose = jb.simulate(model, 0.002, ts, options=jb.SolveOptions(time_cells=1))
+    loose = jb.simulate(model, 0.002, ts)
     with compiled_functions() as compiles:
-        tight = jb.simulate(model, 0.002, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), options=jb.SolveOptions(time_cells=1), max_steps=7_000)
+        tight = jb.simulate(model, 0.002, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), max_steps=7_000)
     assert "jit(_simulate)" not in compiles
     assert int(tight.num_steps) > int(loose.num_steps)
     np.testing.assert_allclose(tight.q, loose.q, rtol=0, atol=2e-8)
@@ -54,9 +54,9 @@ def test_fewer_output_times_compile_nothing_new(compiled_functions):
     per-time field has one row per output time asked for."""
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 21)
-    few = jb.simulate(model, 0.002, ts[::10], options=jb.SolveOptions(time_cells=1))
+    few = jb.simulate(model, 0.002, ts[::10])
     with compiled_functions() as compiles:
-        many = jb.simulate(model, 0.002, ts, options=jb.SolveOptions(time_cells=1))
+        many = jb.simulate(model, 0.002, ts)
     assert "jit(_simulate)" not in compiles
     per_time = [
         f.name for f in dataclasses.fields(many)
@@ -74,14 +74,14 @@ def test_a_python_float_put_into_the_model_compiles_nothing_new(compiled_functio
     array (one compiled program, the same inputs)."""
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 3)
-    jb.simulate(model, 0.002, ts, options=jb.SolveOptions(time_cells=1))
+    jb.simulate(model, 0.002, ts)
     wider = eqx.tree_at(lambda m: m.bearing.clearance, model, 60e-6)
     assert isinstance(wider.bearing.clearance, float)
     with compiled_functions() as compiles:
-        sol = jb.simulate(wider, 0.002, ts, options=jb.SolveOptions(time_cells=1))
+        sol = jb.simulate(wider, 0.002, ts)
     assert "jit(_simulate)" not in compiles
     as_array = eqx.tree_at(lambda m: m.bearing.clearance, model, jnp.asarray(60e-6))
-    np.testing.assert_array_equal(sol.q, jb.simulate(as_array, 0.002, ts, options=jb.SolveOptions(time_cells=1)).q)
+    np.testing.assert_array_equal(sol.q, jb.simulate(as_array, 0.002, ts).q)
 
 
 _FRESH = """

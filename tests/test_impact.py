@@ -18,7 +18,7 @@ import jaxbearing as jb  # noqa: E402
 from jaxbearing.multibody import Body, CircleContact, Mechanism, Translational  # noqa: E402
 
 import helpers as ref  # noqa: E402
-from jaxbearing.solve._segment import SEPARATION_OFFSET  # noqa: E402
+from jaxbearing.solve._core import SEPARATION_OFFSET  # noqa: E402
 
 K_PAPER = 1.07e10  # paper's K_d for two 10 mm steel circles [N/m^1.5]
 

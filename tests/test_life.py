@@ -327,7 +327,7 @@ def _fake_solution(model, e0, omega=20 * np.pi, samples=401):
         ts=jnp.asarray(ts), q=jnp.asarray(q), qd=jnp.asarray(qd), qdd=None, ball_loads=loads,
         bearing_force=force, cage_angle=jnp.asarray(cage), contact_force=None, penetration=None,
         approach_speed=None, drift=None, contacts=None, segments=None, fatigue=None, result=None, t_final=None, num_steps=None,
-        num_rejected_steps=None, num_segments=None,
+        num_rejected_steps=None, num_segments=None, num_events=None,
     )  # fmt: skip
 
 
@@ -528,7 +528,7 @@ def test_life_gradient_through_the_simulation_matches_differences():
     def log_lives(clearance, adjoint=None):
         model = jb.paths.replace(base, {"bearing.clearance": clearance})
         sol = jb.simulate(
-            model, 0.02, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-13), options=jb.SolveOptions(time_cells=1, window_edges=(0.005,)), adjoint=adjoint,
+            model, 0.02, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-13), options=jb.SolveOptions(window_edges=(0.005,)), adjoint=adjoint,
         )  # fmt: skip
         iso = life.iso_life(sol, model, t_min=0.005).l10
         lp = life.lp_life(sol, model, t_min=0.005, **grooves).l10

@@ -17,7 +17,8 @@ from jaxbearing.solution import INT_TIME
 from test_derivatives import TIGHT, converged_difference
 
 T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases, no impact yet
-EDGE = 0.013  # [s] a window edge that is no time-cell end
+EDGE = 0.013  # [s] a window edge that is no stop of `dense`
+STOP = 0.01  # [s] a window edge given to `dense` and `coarse` as a stop
 
 
 @pytest.fixture(scope="module")
@@ -27,12 +28,12 @@ def model():
 
 @pytest.fixture(scope="module")
 def dense(model):
-    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 20001))
+    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 20001), options=jb.SolveOptions(window_edges=(STOP,)))
 
 
 @pytest.fixture(scope="module")
 def coarse(model):
-    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 201))
+    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 201), options=jb.SolveOptions(window_edges=(STOP,)))
 
 
 def span(sol):
@@ -46,13 +47,13 @@ def test_intervals_cover_the_span_exactly(dense):
     starts, ends = np.asarray(s.t_start)[valid], np.asarray(s.t_end)[valid]
     assert starts[0] == 0.0 and ends[-1] == T1
     np.testing.assert_array_equal(starts[1:], ends[:-1])  # contiguous
-    # the steps recorded in each interval tile it: the segments stop at the stops, and the last
-    # step of a segment that ends at an event counts only up to the event
+    # the steps recorded in each interval tile it: steps end at the stops, and a step across an
+    # event counts only up to the event
     duration = np.asarray(s.integrals)[valid, INT_TIME]
     np.testing.assert_allclose(duration, ends - starts, rtol=1e-12)
     assert span(dense) == pytest.approx(T1, rel=1e-12)
-    # one entry per stop (64 time cells; 0.04 s lies beyond T1), however many segments
-    assert int(np.sum(valid)) == 64 < int(dense.num_segments)
+    # one entry per stop (STOP and T1; 0.04 s lies beyond T1), however many steps and events
+    assert int(np.sum(valid)) == 2 < int(dense.num_events)
 
 
 def test_metrics_agree_with_dense_samples(dense, coarse):
@@ -76,7 +77,7 @@ def test_metrics_agree_with_dense_samples(dense, coarse):
     assert float(M.smooth_peak_ball_load(dense, t_min=0.0)) == pytest.approx(smooth, rel=1e-4)
 
 
-@pytest.mark.parametrize("t_min", [0.0, 0.01])  # 0.01 s: a time-cell end
+@pytest.mark.parametrize("t_min", [0.0, STOP])
 def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
     """`peak_time` and `peak_ball` are the same whatever the output times; the solution takes
     the peak value at `peak_time`: samples 1 µs apart, interpolated linearly there, agree within

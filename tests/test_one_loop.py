@@ -207,7 +207,7 @@ def test_a_model_without_events_agrees_with_simulate():
 @pytest.mark.parametrize(
     "kwargs, error, match",
     [
-        (dict(solver=jb.kvaerno5()), TypeError, "forwards only simulate_one_loop's"),
+        (dict(adjoint=None), TypeError, "forwards only simulate_one_loop's"),
         (dict(ts=[0.0, T1]), ValueError, "keeps no output times"),
         (dict(metrics={"ball": lambda sol: jnp.max(sol.ball_loads)}), ValueError, "keeps no output samples"),
         (dict(solve="loop"), ValueError, "solve must be one of"),

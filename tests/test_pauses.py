@@ -4,9 +4,13 @@ agree with the same points run alone.
 
 Runs that pause elsewhere, or run as members of a batch, are other compiled programs, which XLA
 may round differently; the solver amplifies such differences up to its accuracy (rtol 1e-8 on
-states of millimetres: positions within about 1e-9 m once the rod has hit the race). So they are
-compared with tolerances: positions within 1e-8 m (the benchmark's reference check is 1e-7 m),
-the metrics within 1e-6 relative, step counts within 1 %.
+states of millimetres and angles of 0.1 rad). So they are compared with tolerances that the
+solver's own error sets: positions within 1e-7 m (the benchmark's reference check), angles
+within 5e-7 rad (the rod's angle at 80 um clearance, 0.08 s, is 3.5e-7 rad from a run at
+1000x tighter tolerances; a batch member and its single run measured 1.1e-7 rad apart), the
+metrics within 1e-4 relative (the same member's peak ball load is 9.5e-5 from the tighter run,
+2.9e-5 from its single run: ball loads go as deflections of micrometres to the power 1.5), step
+counts within 1 %.
 """
 
 import jax
@@ -18,8 +22,9 @@ import jaxbearing as jb
 
 T1 = 0.08  # [s] past the impact's onset: contact events and ball switches both occur
 TS = jnp.linspace(0.0, T1, 41)
-POSITION_TOLERANCE = 1e-8  # [m]
-METRIC_TOLERANCE = 1e-6  # relative
+POSITION_TOLERANCE = 1e-7  # [m]
+ANGLE_TOLERANCE = 5e-7  # [rad]
+METRIC_TOLERANCE = 1e-4  # relative
 
 
 def _model():
@@ -27,7 +32,9 @@ def _model():
 
 
 def _assert_agree(sol, ref):
-    np.testing.assert_allclose(sol.q, ref.q, rtol=0, atol=POSITION_TOLERANCE)
+    xy = np.arange(sol.q.shape[-1]) % 3 != 2  # (x, y, angle) per body
+    np.testing.assert_allclose(sol.q[:, xy], ref.q[:, xy], rtol=0, atol=POSITION_TOLERANCE)
+    np.testing.assert_allclose(sol.q[:, ~xy], ref.q[:, ~xy], rtol=0, atol=ANGLE_TOLERANCE)
     assert abs(int(sol.num_steps) - int(ref.num_steps)) <= 0.01 * int(ref.num_steps)
     onsets = lambda s: np.asarray(s.contacts.time)[np.asarray(s.contacts.valid)]  # noqa: E731
     np.testing.assert_allclose(onsets(sol), onsets(ref), rtol=0, atol=1e-9)
@@ -65,15 +72,16 @@ def test_vmapped_members_agree_with_single_runs(segment_steps):
 
 
 def test_a_paused_segment_keeps_its_step_limit():
-    """max_steps bounds a segment's steps over all its pauses: the run fails, it does not go on."""
+    """max_steps bounds the run's steps however it is cut into segments: the run fails, it does
+    not go on."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
     # pausing every 40 steps: the compiled solve that the python-span test below runs as well
-    assert int(jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=40, time_cells=1)).num_steps) > 40
+    assert int(jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=40)).num_steps) > 40
     for k in (None, 8):
-        sol = jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=k, time_cells=1), max_steps=40, throw=False)
+        sol = jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=k), max_steps=40, throw=False)
         assert sol.result == jb.RESULTS.max_steps_reached
     with pytest.raises(jb.SimulationError):
-        jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=8, time_cells=1), max_steps=40)
+        jb.simulate(model, 0.01, ts, options=jb.SolveOptions(segment_steps=8), max_steps=40)
 
 
 def test_a_failed_run_keeps_the_outputs_it_reached():
@@ -93,7 +101,7 @@ def test_a_failed_run_keeps_the_outputs_it_reached():
 
 def test_pauses_count_against_max_segments():
     sol = jb.simulate(
-        jb.cases.xu2014(impact=False), 0.01, jnp.array([0.0, 0.01]), options=jb.SolveOptions(segment_steps=8, max_segments=4, time_cells=1), throw=False,
+        jb.cases.xu2014(impact=False), 0.01, jnp.array([0.0, 0.01]), options=jb.SolveOptions(segment_steps=8, max_segments=4), throw=False,
     )
     assert sol.result == jb.RESULTS.max_segments_reached
     assert jb.default_max_segments(_model(), 0.0, 0.2, 8) > jb.default_max_segments(_model(), 0.0, 0.2)
@@ -101,16 +109,16 @@ def test_pauses_count_against_max_segments():
 
 def test_a_python_span_sets_the_default_segments_also_under_jit():
     """A span given as Python numbers is known when `simulate` is traced inside the caller's jit
-    (or `jb.sensitivity`), so the default max_segments is that of the span, not of 1 s (8x the
-    slots for 0.2 s, each a zero-length solve in a single run)."""
+    (or `jb.sensitivity`), so the defaults that follow from it (max_segments, max_onsets) are
+    those of the span, not of 1 s."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
-    slots = lambda sol: sol.contacts.time.shape[0]  # noqa: E731
-    kw = dict(options=jb.SolveOptions(segment_steps=40, time_cells=1))  # the first solve of the step-limit test
+    slots = lambda sol: sol.contacts.time.shape[0]  # max_onsets  # noqa: E731
+    kw = dict(options=jb.SolveOptions(segment_steps=40))  # the first solve of the step-limit test
     plain = jb.simulate(model, 0.01, ts, **kw)
     traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts, **kw))
-    assert slots(traced) == slots(plain) < jb.default_max_segments(model, 0.0, 1.0, 40)
+    assert slots(traced) == slots(plain) == jb.default_max_onsets(0.0, 0.01) < jb.default_max_onsets(0.0, 1.0)
 
 
 def test_segment_steps_must_be_positive():
-    with pytest.raises(ValueError, match="segment_steps must be None or at least 1"):
+    with pytest.raises(ValueError, match="segment_steps must be None or an integer of at least 1"):
         jb.simulate(_model(), T1, TS, options=jb.SolveOptions(segment_steps=0))

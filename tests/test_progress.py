@@ -48,7 +48,7 @@ def test_one_bar_per_run_across_segments(capsys, reports):
     model = jb.cases.xu2014(impact=False)
     sol = jax.block_until_ready(jb.simulate(model, 0.005, progress="short run"))
     out, err = capsys.readouterr()
-    assert int(sol.num_segments) > 64  # a segment per time cell and per ball switch, one bar
+    assert int(sol.num_segments) > 2 and int(sol.num_events) > 0  # several segments, one bar
     [line] = bars(err, "short run")
     assert "short run: 100%" in line and "0.0050 of 0.005 s" in line
     assert out == "" and err.count("\n") == 1 and "100.0 %" not in err

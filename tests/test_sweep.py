@@ -42,7 +42,6 @@ sweep = jb.sweep
 T1 = 0.01
 TS = np.linspace(0.0, T1, 11)
 MAX_STEPS = 1500
-TIME_CELLS = 1  # no alignment cells: with simulate's 64, these 0.01 s chunks take 1.3 s, not 0.18 s
 CHUNK = 2  # points per device per chunk
 GROOVES = {"groove_inner": 0.5219, "groove_outer": 0.5194}  # those of cases.xu2014
 METRICS = {  # window from t = 0: the standard one starts at 0.04 s
@@ -78,8 +77,7 @@ def model():
 
 
 def run(params=GRID, **kwargs):
-    options = dict(metrics=METRICS, t1=T1, ts=TS, max_steps=MAX_STEPS,
-                   options=jb.SolveOptions(time_cells=TIME_CELLS), chunk_size=CHUNK, progress=False)
+    options = dict(metrics=METRICS, t1=T1, ts=TS, max_steps=MAX_STEPS, chunk_size=CHUNK, progress=False)
     options.update(kwargs)
     return sweep(model(), params, **options)
 
@@ -178,7 +176,7 @@ def single(c, d):
     """One point alone, under jit with the parameters traced (as in the sweep): its metrics,
     life by `jb.life.iso_life` and `jb.life.lp_life`, and the result code."""
     m = paths.replace(model(), {"bearing.clearance": c, "bearing.damping": d})
-    sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, options=jb.SolveOptions(time_cells=TIME_CELLS), throw=False)
+    sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, throw=False)
     values = {name: METRICS[name](sol) for name in ("peak_ball_load", "rms_bearing_force")}
     values["l10_iso_hours"] = jb.life.iso_life(sol, m, t_min=0.0).l10_hours
     values["l10_lp_mrev"] = jb.life.lp_life(sol, m, t_min=0.0, **GROOVES).l10
@@ -309,7 +307,7 @@ def test_default_output_times_are_what_the_metrics_need():
     np.testing.assert_array_equal(ds.attrs["ts"], [0.0, T1])
     for c in CLEARANCES[::2]:
         m = paths.replace(model(), {"bearing.clearance": c})
-        sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS, options=jb.SolveOptions(time_cells=TIME_CELLS))
+        sol = jb.simulate(m, T1, TS, max_steps=MAX_STEPS)
         for name, fn in exact.items():
             np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-5, err_msg=name)
 
@@ -420,7 +418,7 @@ def test_different_arguments_in_the_same_folder_raise(grid_result):
     with pytest.raises(ValueError, match=r"model_fingerprint, model_parameters differ .*"
                        r"model_parameters joints\.1\.speed: stored 62\.83185307179586, now 30\.0"):
         sweep(jb.cases.xu2014(impact=False, crank_speed=30.0), GRID, metrics=METRICS, t1=T1,
-              ts=TS, max_steps=MAX_STEPS, options=jb.SolveOptions(time_cells=TIME_CELLS), chunk_size=CHUNK,
+              ts=TS, max_steps=MAX_STEPS, chunk_size=CHUNK,
               progress=False, out=out)
     with pytest.raises(ValueError, match="simulate rtol: stored 1e-08, now 1e-07"):
         run(out=out, stepsize_controller=jb.default_controller(rtol=1e-7))

@@ -30,11 +30,9 @@ How it runs
   All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
   of the same model structure, metrics and solver settings in the same process). Memory stays
   bounded by the chunk, whatever the number of points.
-- Under vmap the members run in lock-step, segment by segment. Members pause every
-  `SEGMENT_STEPS` steps (`SolveOptions.segment_steps`; a pause resumes with the same steps),
-  so at each of its events a member
-  waits for the others at most that many steps; a chunk still runs until its slowest member
-  finishes: points that need many steps slow down their chunk, not the others.
+- Under vmap every member takes its own steps and locates its own events in each iteration of
+  the solve's loop; a chunk runs until its slowest member finishes: points that need many
+  steps slow down their chunk, not the others.
 - ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a
   member, no segments and no output times, for large batches on accelerators (docs/platforms.md); its metrics agree with `simulate`'s to the solver's accuracy. It takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
   ``"solve": "one_loop"`` in the manifest.
@@ -116,13 +114,12 @@ files, resume), `dataset` (the Dataset, ``results.nc``, the failure report), `pr
 bar) and `driver` (`sweep`, a list of these stages).
 """
 
-from .arguments import DEFAULT_SAMPLES, SEGMENT_STEPS, default_chunk_size, needs_samples
+from .arguments import DEFAULT_SAMPLES, default_chunk_size, needs_samples
 from .driver import sweep
 from .kernel import RAISED
 from .store import MANIFEST, RESULTS_FILE
 
 __all__ = [
-    "SEGMENT_STEPS",
     "DEFAULT_SAMPLES",
     "MANIFEST",
     "RAISED",

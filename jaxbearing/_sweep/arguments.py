@@ -18,11 +18,10 @@ import numpy as np
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
-from ..solve._simulate import _checked_controller, _checked_options, _checked_span, _checked_ts, window_stops
+from ..solve._simulate import SEGMENT_STEPS, _checked_controller, _checked_options, _checked_span, _checked_ts, window_stops
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
-SEGMENT_STEPS = 8  # a member's segments pause after this many steps (docs/performance.md: 4-12)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
@@ -69,12 +68,9 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "one_loop":
         _check_one_loop(items, ts)
-    else:
-        if options.segment_steps is None:
-            options = dataclasses.replace(options, segment_steps=SEGMENT_STEPS)
-        if options.max_segments is None:
-            segments = default_max_segments(model, t0, t1, options.segment_steps)
-            options = dataclasses.replace(options, max_segments=segments)
+    elif options.max_segments is None:  # resolved here, so that the manifest records it
+        segments = default_max_segments(model, t0, t1, options.segment_steps or SEGMENT_STEPS)
+        options = dataclasses.replace(options, max_segments=segments)
     sim_kwargs["options"] = options
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
@@ -217,8 +213,7 @@ def simulate_kwargs_of(kwargs, solve="segments"):
 
 def resolved_settings(sim_kwargs, solve="segments"):
     """The solve's settings with defaults filled in, flat (for the manifest and attributes):
-    `simulate`'s keywords (or `simulate_one_loop`'s, with ``solver`` Tsit5 and
-    ``max_segments`` 0), the controller's ``rtol`` and ``atol``, and every field of its
+    `simulate`'s keywords (or `simulate_one_loop`'s, with ``max_segments`` 0), the controller's ``rtol`` and ``atol``, and every field of its
     `SolveOptions`."""
     settings = {}
     for name, p in _simulate_parameters(solve).items():

@@ -61,12 +61,12 @@ def sweep(
         solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
             `simulate_one_loop` run (one while loop a member, no output times: for large
             batches on accelerators; its metrics agree with `simulate`'s to the solver's
-            accuracy). It takes ``stepsize_controller``,
+            accuracy). It takes ``solver``, ``stepsize_controller``,
             ``max_steps`` and ``options``, and only metrics of the solve's records.
         **simulate_kwargs: passed to `simulate` (``solver``, ``stepsize_controller``,
             ``adjoint``, ``max_steps``, ``options``); ``throw`` and ``progress`` are set by the
             sweep. Without ``options.fatigue`` set, members record the life's integrals only
-            where a metric reads them; ``options.segment_steps`` defaults to `SEGMENT_STEPS`.
+            where a metric reads them.
 
     Returns:
         `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =

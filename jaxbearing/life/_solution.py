@@ -127,8 +127,8 @@ def iso_life(
     accepted step's interpolant), not of the output times.
 
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
-    [s], whose edges must be ends of the solve's stop intervals (t0, `T_MIN`, the time cells'
-    ends, ``SolveOptions.window_edges``, t1); bearing: index of the bearing joint (0, the one
+    [s], whose edges must be ends of the solve's stop intervals (t0, `T_MIN`,
+    ``SolveOptions.window_edges``, t1); bearing: index of the bearing joint (0, the one
     `Solution` records).
     """
     _check_solution(sol, bearing)
@@ -251,7 +251,7 @@ def lp_life(
             them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
             0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
         t_min, t_max: window [s]; its edges must be ends of the solve's stop intervals (t0,
-            `T_MIN`, the time cells' ends, ``SolveOptions.window_edges``, t1).
+            `T_MIN`, ``SolveOptions.window_edges``, t1).
         rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
         points_per_ball: ring points per ball spacing for ``rotating=None``: the solve follows
             `solution.RING_POINTS_PER_BALL`; None or that number.

@@ -75,7 +75,7 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     ``peak_impact_force_N`` (whole run), ``peak_bearing_force_N`` (|F| over t >= ``t_min``, a
     stop of the solve), ``peak_ball_load_N`` (over t >= ``t_min``), each with its ``_time_s``,
     and ``peak_ball_load_ball``; ``peak_window_from_s``, ``max_drift`` (max |Phi| [m or rad]
-    over the output samples), ``num_steps``, ``num_rejected_steps``, ``num_segments``.
+    over the output samples), ``num_steps``, ``num_rejected_steps``, ``num_segments``, ``num_events``.
 
     The peaks, their times and the ball are `jaxbearing.metrics`' (from every solver step and
     its interpolant, whatever the output times; NaN, and ball None, where the run ended before
@@ -111,6 +111,7 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "num_steps": int(sol.num_steps),
         "num_rejected_steps": int(sol.num_rejected_steps),
         "num_segments": int(sol.num_segments),
+        "num_events": int(sol.num_events),
     }
 
 
@@ -173,7 +174,7 @@ def format_summary(label: str, s: Mapping) -> str:
     lines.append(f"  max constraint drift {_fmt(s['max_drift'], '.3e')}")
     lines.append(
         f"  steps                {s['num_steps']} ({s['num_rejected_steps']} rejected), "
-        f"{s['num_segments']} segments"
+        f"{s['num_events']} events located"
     )
     if "l10_iso_hours" in s:
         lines.append(

@@ -18,18 +18,17 @@ class SolveOptions(eqx.Module):
             (`jaxbearing.life`); False: ``sol.fatigue`` is None and the life functions refuse
             the solution. None (the default): True for a single run; in `jaxbearing.sweep`,
             only where a metric reads them.
-        max_segments: segments allowed beyond the stops (each contact onset and separation,
-            each engagement and release of a paper-force ball, and each pause starts one); the
-            run fails if it needs more. None: `default_max_segments`.
-        segment_steps: steps after which a segment pauses and the next iteration of the segment
-            loop resumes it with the step-size controller's state (the same steps as without
-            the pause). Under `jax.vmap` a member that reached an event waits for the others at
-            most this many steps; reverse mode stores every step of a segment, so its memory
-            grows with it. None: `SEGMENT_STEPS`, at most ``max_steps``.
-        time_cells: equal intervals of [t0, t1] at whose ends segments also stop, which keeps
-            the members of a vmapped batch aligned in time; 1 for none.
+        max_segments: segments of ``segment_steps`` iterations that `simulate` allows (an
+            iteration is a step, accepted or rejected, or a step of an event's root finder);
+            the run fails if it needs more. None: `default_max_segments`.
+        segment_steps: iterations of a segment: the steps a segment records for the output
+            times and, in reverse mode, stores for the backward pass (its memory grows with
+            it). Segments are pauses: a run takes the same steps however it is cut. None:
+            `SEGMENT_STEPS`.
         output_block: output times a segment evaluates and writes together (None:
             `default_output_block`); any value gives the same outputs.
+        max_onsets: contact onsets recorded in `Solution.contacts`; a run with more fails.
+            None: `default_max_onsets`.
     """
 
     t0: float = 0.0
@@ -37,5 +36,5 @@ class SolveOptions(eqx.Module):
     fatigue: bool | None = eqx.field(default=None, static=True)
     max_segments: int | None = eqx.field(default=None, static=True)
     segment_steps: int | None = eqx.field(default=None, static=True)
-    time_cells: int = eqx.field(default=64, static=True)
     output_block: int | None = eqx.field(default=None, static=True)
+    max_onsets: int | None = eqx.field(default=None, static=True)

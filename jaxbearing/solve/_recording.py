@@ -1,5 +1,5 @@
-"""The recording solver: the user's solver plus the `SegmentStats` and the `FatigueStats`
-integrals of every accepted step.
+"""What the solve records of every step it takes: the `SegmentStats` peaks and integrals and
+the `FatigueStats` integrals (`_step_stats`), and the forces the outputs report (`_forces`).
 
 Each step contributes the forces at its end and at its 3 Gauss–Legendre points, and their
 Gauss–Legendre quadrature over the step; its peaks also at the vertices of parabolas through
@@ -11,14 +11,11 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import diffrax
-import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
 from ..laws import bearing as bearing_law
-from ..multibody.mechanism import Mechanism
 from ..solution import FORCE_SCALE, PEAK_BALL_LOAD, POWER, RING_POINTS_PER_BALL
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
@@ -265,87 +262,6 @@ def _gauss_sum(values):
     """sum_i GAUSS_WEIGHTS[i] values[i] over the 3 Gauss points."""
     w = GAUSS_WEIGHTS
     return w[0] * values[0] + w[1] * values[1] + w[2] * values[2]
-
-
-class _Recording(diffrax.AbstractAdaptiveSolver):
-    """The user's solver, plus the `SegmentStats` and `FatigueStats` integrals of the steps it
-    takes.
-
-    State: (inner state, (`Peaks`, integrals, fatigue integrals) over all accepted steps but the
-    latest, the latest accepted step (t0, t1, dense_info)). Each step adds its predecessor's
-    stats: diffrax keeps the old state when it rejects a step, so only accepted steps count,
-    and the latest one is left open, so that `_close` counts it up to the end of the segment,
-    which lies before its t1 when the segment ends at an event. The state starts with a
-    placeholder step of length zero at y0 (values y0, slopes zero), which counts the segment's
-    initial state. Its peaks start from ``start``, the peaks so far of the stop interval the
-    segment continues (set by `_segment._solve` for each segment; the contact force's from none,
-    so that the segment's own peak is recorded), so that a step is refined between its points
-    (`_step_stats`) only where it may rise above them.
-    """
-
-    solver: diffrax.AbstractSolver
-    model: Mechanism
-    fatigue: bool = eqx.field(static=True, default=True)  # record the `FatigueStats` integrals
-    start: Peaks | None = None  # set for each segment by `_segment._solve`
-
-    @property
-    def term_structure(self):
-        return self.solver.term_structure
-
-    @property
-    def interpolation_cls(self):  # pyright: ignore
-        return self.solver.interpolation_cls
-
-    @property
-    def term_compatible_contr_kwargs(self):
-        return self.solver.term_compatible_contr_kwargs
-
-    def order(self, terms):
-        return self.solver.order(terms)
-
-    def error_order(self, terms):
-        return self.solver.error_order(terms)
-
-    def init(self, terms, t0, t1, y0, args):
-        inner = self.solver.init(terms, t0, t1, y0, args)
-        _, _, dense_struct, _, _ = eqx.filter_eval_shape(
-            self.solver.step, terms, t0, t1, y0, args, inner, False
-        )
-        dense = jax.tree_util.tree_map(
-            lambda s: y0 if s.shape == y0.shape else jnp.zeros(s.shape, s.dtype), dense_struct
-        )
-        stats = (
-            self.start,
-            jnp.zeros(INTEGRALS, y0.dtype),
-            jnp.zeros(fatigue_size(self.model, self.fatigue), y0.dtype),
-        )
-        t0 = jnp.asarray(t0, y0.dtype)
-        return inner, stats, (t0, t0, dense)
-
-    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
-        inner, stats, last = solver_state
-        y1, error, dense, inner, result = self.solver.step(
-            terms, t0, t1, y0, args, inner, made_jump
-        )
-        closed = _close(self.model, self.solver, last, last[1], args, self.fatigue, stats[0])
-        stats = _add(stats, closed)
-        t0, t1 = jnp.asarray(t0, y0.dtype), jnp.asarray(t1, y0.dtype)
-        return y1, error, dense, (inner, stats, (t0, t1, dense)), result
-
-    def func(self, terms, t0, y0, args):
-        return self.solver.func(terms, t0, y0, args)
-
-
-@eqx.filter_jit
-def _close(model, solver, last, t_end, args, fatigue, running):
-    """Stats of the step ``last`` = (t0, t1, dense_info) over [t0, t_end], whose span's peaks so
-    far are ``running`` (`_step_stats`). A jit of its own
-    inside the solve's: diffrax traces a step several times (for the shapes of its state, then
-    in its loop) and the segment closes its last step once more, and JAX traces this once for
-    all of them (the compiled program is the same)."""
-    t_a, t_b, dense = last
-    interpolation = solver.interpolation_cls(t0=t_a, t1=t_b, **dense)
-    return _step_stats(model, interpolation, t_a, t_end, args, fatigue, running)
 
 
 def _add(stats, more):

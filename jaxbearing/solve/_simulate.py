@@ -1,29 +1,15 @@
 """The public entry of the solve: `simulate`, its defaults, its checks and its outputs.
 
-State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
-(Lankarani–Nikravesh, Eq. 23), and the paper's ball force (Eq. 9) switches each ball's damping on
-at first touch, so the solve is split into segments at events: a `diffrax.Event` locates, by a
-bracketing root finder on the step's interpolant (`_segment._EventRoot`: robust also for grazing
-contacts, where Newton stalls), the time at which a penetration crosses zero (onset) or falls
-below -`SEPARATION_OFFSET` (separation), or a paper-force ball's deflection crosses zero
-(engagement) or falls below -`BALL_RELEASE` (release); the next segment restarts there with
-the approach speed recorded at the onset and the ball switched. Within a segment the right-hand
-side is smooth, and derivatives of the solution include the jump of every switch through the
-event times' implicit derivatives. Segments also end at the ends of ``time_cells`` equal
-intervals of [t0, t1], so that the members of a vmapped batch stay aligned in time: a batch runs
-each segment until its slowest member is done, and without the cells a member that has had one
-contact event more than another would integrate an unrelated span beside it. They end as well at
-`WINDOW_START` and at the ``window_edges`` asked for, the edges of the metrics' windows. Segments
-run in a `lax.scan` of fixed length (the number of stops plus ``max_segments``; reverse- and
-forward-mode differentiable, vmappable); finished members idle in zero-length solves, and in a
-vmapped batch the slots left once every member is done branch past the solve (`_segment.slot`).
-A run that needs more segments than that fails loudly.
+`simulate` repeats the integrator core (`_core.advance`: a solver step with step-size control,
+or a step of the event's root finder, and the records of each step taken) in segments of
+``segment_steps`` iterations (`_segments`): a `lax.scan` of fixed length (``max_segments``;
+reverse- and forward-mode differentiable, vmappable) whose segments are `eqxi.while_loop`s. A
+run that needs more segments than that fails loudly.
 
-While it integrates, the solver records the peaks and integrals that `jaxbearing.metrics`
-needs (`SegmentStats`), from every accepted step and the step's interpolant, so that the metrics
-do not depend on the output times; and the bearing life's integrals (`FatigueStats`). Both are
-kept per interval between stops, in the loop's carry, so their size does not grow with the
-number of segments.
+While it integrates, the core records the peaks and integrals that `jaxbearing.metrics` needs
+(`SegmentStats`), from every accepted step and the step's interpolant, so that the metrics do
+not depend on the output times; and the bearing life's integrals (`FatigueStats`). Both are kept
+per interval between stops (`WINDOW_START`, the window edges asked for, t1).
 """
 
 from __future__ import annotations
@@ -53,29 +39,28 @@ from ..solution import (
     Solution,
 )
 from ._progress import label_key
-from ._recording import _accelerations, _forces, _Recording
-from ._segment import (
-    _Setup,
+from ._core import ROOT_STEPS, Setup, contacts, initial_state
+from ._options import SolveOptions
+from ._recording import _accelerations, _forces
+from ._segments import (
+    Driver,
     _where_rows,
-    contact_spans,
     full_rows,
     initial_carry,
-    make_event,
+    loop_kind,
     output_rows,
     padded_times,
-    resumable,
     slot,
 )
-from ._options import SolveOptions
-from ._stops import _for_adjoint, _stops, _with_root_tolerances, default_output_block
+from ._stops import default_output_block, for_loop_kind, stops as _stops, with_root_tolerances
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 RTOL, ATOL = 1e-8, 1e-10  # the default step-size control's tolerances (state in m, rad, m/s)
 OUTPUT_BATCH = 2048  # output times evaluated together (forces, accelerations) after the solve
 OUTPUT_BUCKET = 2048  # fewer output times share one compiled solve of this many (`_bucketed`)
-SEGMENT_STEPS = 128  # default steps after which a segment pauses: the rows of its dense output
-EVENT_RATE = 4000.0  # [1/s] events per simulated second that the default max_segments allows
-STEP_RATE = 100_000.0  # [1/s] steps per simulated second that it allows for pauses (segment_steps)
+SEGMENT_STEPS = 128  # default iterations of a segment: the rows of its record of steps
+ITERATION_RATE = 500_000.0  # [1/s] iterations per simulated second the default max_segments allows
+ONSET_RATE = 320.0  # [1/s] contact onsets per simulated second the default max_onsets allows
 
 
 def default_solver() -> diffrax.AbstractSolver:
@@ -113,7 +98,7 @@ def simulate(
     solver: diffrax.AbstractSolver | None = None,
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
     adjoint: diffrax.AbstractAdjoint | None = None,
-    max_steps: int = 200_000,
+    max_steps: int = 1_000_000,
     throw: bool = True,
     progress: str | None = None,
     options: SolveOptions | None = None,
@@ -130,14 +115,13 @@ def simulate(
         stepsize_controller: a diffrax step-size controller; default `default_controller()`
             (rtol 1e-8, atol 1e-10). Its rtol and atol are values of the compiled solve, like
             ``max_steps``: other values compile nothing.
-        adjoint: how diffrax differentiates each segment. The default (None) is
-            `diffrax.RecursiveCheckpointAdjoint` storing every step of a segment (`stored_steps`
-            says why), which serves `jax.grad` and `jax.jacrev` (reverse mode), and becomes
-            `diffrax.ForwardMode()` when `simulate` is traced under `jax.jacfwd` or `jax.jvp`
-            (forward mode, the cheaper for a few parameters; `jaxbearing.sensitivity`). Around
-            your own `jax.jit` (``jax.jacfwd(jax.jit(f))``) pass ``adjoint=diffrax.ForwardMode()``.
-        max_steps: step limit of each segment (between events and stops; its pauses count
-            together), an integer >= 1.
+        adjoint: how the solve's loops are differentiated. The default (None) serves `jax.grad`
+            and `jax.jacrev` (reverse mode, as `diffrax.RecursiveCheckpointAdjoint`, storing
+            every step of a segment: docs/gradients.md says why), and `jax.jacfwd` and
+            `jax.jvp` (forward mode, as `diffrax.ForwardMode()`, the cheaper for a few
+            parameters; `jaxbearing.sensitivity`). Around your own `jax.jit`
+            (``jax.jacfwd(jax.jit(f))``) pass ``adjoint=diffrax.ForwardMode()``.
+        max_steps: steps (accepted and rejected) the whole run may take, an integer >= 1.
         throw: raise on failure (`SimulationError`; a `ValueError` naming the rule for an invalid
             parameter value); with False, inspect ``sol.result`` (`RESULTS`) and ``sol.t_final``.
             The compiled solve itself raises nothing: failures come back as result codes.
@@ -151,39 +135,20 @@ def simulate(
         raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
     model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
     options = _checked_options(options)
-    t0, window_edges = options.t0, options.window_edges
-    fatigue = options.fatigue is not False
-    max_segments, segment_steps = options.max_segments, options.segment_steps
-    time_cells, output_block = options.time_cells, options.output_block
-    span = (t0, t1)  # as given: Python numbers stay concrete under the caller's jit
-    t0, t1 = _checked_span(t0, t1)
+    span = (options.t0, t1)  # as given: Python numbers stay concrete under the caller's jit
+    t0, t1 = _checked_span(options.t0, t1)
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     n_out = ts.shape[0]
     ts = _bucketed(ts)
-    if segment_steps is not None and not 1 <= segment_steps:
-        raise ValueError(f"segment_steps must be None or at least 1; got {segment_steps}.")
     _check_max_steps(max_steps)
-    if max_segments is None:
-        max_segments = default_max_segments(model, *span, segment_steps)
-    segment_steps = min(SEGMENT_STEPS if segment_steps is None else int(segment_steps), max_steps)
-    if max_segments < 1:
-        raise ValueError(f"max_segments must be at least 1; got {max_segments}.")
-    if time_cells < 1:
-        raise ValueError(f"time_cells must be at least 1; got {time_cells}.")
-    if output_block is None:
-        output_block = default_output_block(ts)
-    if not 1 <= output_block:
-        raise ValueError(f"output_block must be at least 1; got {output_block}.")
-    output_block = min(int(output_block), ts.shape[0])
+    sizes = _segmentation(model, options, span, ts)
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
     solver = default_solver() if solver is None else solver
     stepsize_controller = _checked_controller(stepsize_controller)
-    solver = _with_root_tolerances(solver, stepsize_controller)
-    stops = window_stops(window_edges)
+    solver = with_root_tolerances(solver, stepsize_controller)
     sol = _with_adjoint(
         adjoint,
-        segment_steps,
         _simulate,
         model,
         t0,
@@ -192,17 +157,35 @@ def simulate(
         solver,
         stepsize_controller,
         jnp.asarray(max_steps),  # an array, like rtol and atol: another value compiles nothing
-        max_segments,
-        segment_steps,
-        time_cells,
-        stops,
-        output_block,
-        bool(fatigue),
+        window_stops(options.window_edges),
+        options.fatigue is not False,
+        sizes,
         None if progress is None else label_key(progress),
     )
     if throw:
         sol = _raise_on_failure(sol, t1, lambda: start_rules(model, t0, t1, ts))
     return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
+
+
+def _segmentation(model, options: SolveOptions, span, ts) -> tuple[int, int, int, int]:
+    """(max_segments, segment_steps, output_block, max_onsets) of ``options``, defaults filled
+    in; a `ValueError` for a value below 1."""
+    sizes = {
+        "max_segments": options.max_segments,
+        "segment_steps": options.segment_steps,
+        "output_block": options.output_block,
+        "max_onsets": options.max_onsets,
+    }
+    for name, value in sizes.items():
+        if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1):
+            raise ValueError(f"{name} must be None or an integer of at least 1; got {value!r}.")
+    segment_steps = SEGMENT_STEPS if options.segment_steps is None else int(options.segment_steps)
+    max_segments = options.max_segments
+    if max_segments is None:
+        max_segments = default_max_segments(model, *span, segment_steps)
+    block = default_output_block(ts) if options.output_block is None else options.output_block
+    max_onsets = default_max_onsets(*span) if options.max_onsets is None else options.max_onsets
+    return int(max_segments), segment_steps, min(int(block), ts.shape[0]), int(max_onsets)
 
 
 def _bucketed(ts):
@@ -232,51 +215,44 @@ def _first_rows(sol: Solution, n: int) -> Solution:
     )
 
 
-def default_max_segments(model: Mechanism, t0, t1, segment_steps: int | None = None) -> int:
-    """Segments `simulate` allows by default beyond its stops: for events, 1 for a model without
-    contacts or paper-force balls, else 64 + `EVENT_RATE` (t1 - t0); with ``segment_steps``, for
-    pauses, `STEP_RATE` (t1 - t0) / segment_steps more. Rounded up to a power of two, so that
-    runs of similar spans share one compiled solve (a traced span counts as 1 s). docs/performance.md gives
-    the event counts of the paper's case."""
-    events = bool(model.contacts) or bool(model.n_switched_balls)
-    span = max(float(t1) - float(t0) if is_concrete(t1, t0) else 1.0, 0.0)
-    steps = SEGMENT_STEPS if segment_steps is None else segment_steps
-    allowed = (64 + EVENT_RATE * span if events else 1) + STEP_RATE * span / steps
+def _span(t0, t1) -> float:
+    """t1 - t0 [s] where both are concrete, else 1 s."""
+    return max(float(t1) - float(t0) if is_concrete(t1, t0) else 1.0, 0.0)
+
+
+def default_max_segments(model: Mechanism, t0, t1, segment_steps: int = SEGMENT_STEPS) -> int:
+    """Segments `simulate` allows by default: 16 + `ITERATION_RATE` (t1 - t0) / segment_steps
+    rounded up to a power of two, so that
+    runs of similar spans share one compiled solve (a traced span counts as 1 s). An iteration
+    is a step (accepted or rejected) or a step of an event's root finder; docs/performance.md
+    gives the counts of the paper's case."""
+    allowed = 16 + ITERATION_RATE * _span(t0, t1) / segment_steps
     return 1 << math.ceil(math.log2(allowed))
+
+
+def default_max_onsets(t0, t1) -> int:
+    """Contact onsets `simulate` records by default: 32 + `ONSET_RATE` (t1 - t0), rounded up
+    to a power of two (a traced span counts as 1 s)."""
+    return 1 << math.ceil(math.log2(32 + ONSET_RATE * _span(t0, t1)))
 
 
 _NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
 
 
-def stored_steps(adjoint, segment_steps: int):
-    """``adjoint`` with every step of a segment stored for reverse mode: None becomes
-    `diffrax.RecursiveCheckpointAdjoint` with ``checkpoints=segment_steps``, and so does a
-    `RecursiveCheckpointAdjoint` without ``checkpoints``.
-
-    With fewer checkpoints than steps, diffrax's reverse pass recomputes steps from the stored
-    ones, in another compiled program than the forward pass: its rounding differs in the last
-    bits, and the step-size controller then accepts or rejects other steps than the forward pass
-    did, so the gradient mixes two trajectories (docs/gradients.md gives how far off;
-    tests/test_derivatives.py). Stored, the reverse pass replays nothing."""
-    checkpointed = isinstance(adjoint, diffrax.RecursiveCheckpointAdjoint)
-    if adjoint is None or (checkpointed and adjoint.checkpoints is None):
-        return diffrax.RecursiveCheckpointAdjoint(checkpoints=segment_steps)
-    return adjoint
-
-
-def _with_adjoint(adjoint, segment_steps, solve, *args):
-    """``solve(*args, adjoint)``; ``adjoint`` None: `stored_steps`'s default (reverse mode,
-    every step of a segment stored), and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`)
-    meets it (diffrax's reverse-mode adjoints are `jax.custom_vjp`s and refuse jvp while
-    tracing), `diffrax.ForwardMode()`. An explicit adjoint that refuses forward mode gets a
-    `TypeError` naming the one to pass."""
+def _with_adjoint(adjoint, solve, *args):
+    """``solve(*args, kind)`` with the loop kind of ``adjoint`` (`loop_kind`); ``adjoint`` None:
+    reverse mode ("checkpointed"), and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`)
+    meets it (reverse-mode loops are `jax.custom_vjp`s, which refuse jvp while tracing),
+    forward mode ("lax"). An explicit adjoint that refuses forward mode gets a `TypeError`
+    naming the one to pass."""
+    kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
     try:
-        return solve(*args, stored_steps(adjoint, segment_steps))
+        return solve(*args, kind)
     except TypeError as err:
         if _NO_JVP not in str(err):
             raise
         if adjoint is None:
-            return solve(*args, diffrax.ForwardMode())
+            return solve(*args, "lax")
         raise TypeError(
             f"simulate is differentiated in forward mode (jax.jacfwd, jax.jvp), which "
             f"adjoint={type(adjoint).__name__}() does not support (it is reverse mode only): "
@@ -316,7 +292,7 @@ def _check_max_steps(max_steps):
 
 
 def window_stops(window_edges) -> jax.Array:
-    """The stops a solve adds to its time cells: `WINDOW_START` and the ``window_edges`` [s];
+    """The stops a solve adds to t1: `WINDOW_START` and the ``window_edges`` [s];
     a `ValueError` unless those are a tuple (or list) of finite numbers."""
     wrong = ValueError(
         f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
@@ -412,13 +388,8 @@ def _checked_ts(ts, t0, t1):
     return ts
 
 
-@eqx.filter_jit
-def _simulate(
-    model, t0, t1, ts, solver, controller, max_steps, max_segments, segment_steps, time_cells,
-    extra_stops, block, fatigue, progress, adjoint,
-):
-    invalid = _checks.any_violated(start_rules(model, t0, t1, ts))
-    y0 = jnp.concatenate([model.q0, model.qd0])
+def _vector_field(model):
+    """dy/dt of Eq. 36 with y = [q, qd] and args = (approach speeds, in contact, engaged)."""
     n = model.n_coordinates
 
     def vector_field(t, y, args):
@@ -426,48 +397,52 @@ def _simulate(
         q, qd = y[:n], y[n:]
         return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
 
-    setup = _Setup(
+    return diffrax.ODETerm(vector_field)
+
+
+def core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, kind) -> Setup:
+    """The core's `Setup` of one solve (both drivers)."""
+    return Setup(
         model=model,
-        ts=padded_times(ts, block),
-        t0=t0,
+        term=_vector_field(model),
+        solver=for_loop_kind(solver, kind),
+        controller=controller,
+        stops=_stops(t0, t1, extra_stops),
         t1=t1,
-        stops=_stops(t0, t1, time_cells, extra_stops),
-        term=diffrax.ODETerm(vector_field),
-        recording=_Recording(_for_adjoint(solver, adjoint), model, fatigue),
-        solver=solver,
-        controller=resumable(controller),
-        event=make_event(model),
         max_steps=max_steps,
-        segment_steps=segment_steps,
-        block=block,
-        progress=progress,
-        adjoint=adjoint,
+        fatigue=fatigue,
     )
-    slots = jnp.arange(setup.stops.shape[0] + max_segments)
-    init = initial_carry(setup, y0, INITIAL_STEP, invalid)
-    final, records = jax.lax.scan(functools.partial(slot, setup), init, slots)
-    onset_t, onset_v, onset_i, onset_valid, t_reached, used, span = records
-    end, peak, peak_time = contact_spans(onset_i, onset_valid, t_reached, span)
-    t_final = jnp.max(jnp.where(used, t_reached, t0))
-    result = RESULTS.where(final.done, final.result, RESULTS.max_segments_reached)
-    t_start, t_end, valid = _intervals(setup.stops, t0, t_final)
-    segments = segment_stats(t_start, t_end, final.peaks, final.integrals, valid)
-    recorded = model.bearings and fatigue
-    fatigue = _fatigue_stats(final.fatigue, t_start, t_end, valid) if recorded else None
+
+
+@eqx.filter_jit
+def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, sizes, progress, kind):
+    max_segments, segment_steps, block, max_onsets = sizes
+    invalid = _checks.any_violated(start_rules(model, t0, t1, ts))
+    y0 = jnp.concatenate([model.q0, model.qd0])
+    setup = core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, kind)
+    driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
+    state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
+    final, used = jax.lax.scan(
+        functools.partial(slot, driver), initial_carry(driver, state), jnp.arange(max_segments)
+    )
+    x = final.state
+    result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
+    return solution(
+        model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
+        final.written, full_rows(final), jnp.sum(used),
+    )
+
+
+def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
+    """The `Solution` of a run that ended in state ``x`` (`_core.State`) with ``result``, whose
+    outputs are ``rows`` (`_outputs`)."""
+    t_start, t_end, valid = _intervals(stops, t0, x.t)
+    segments = segment_stats(t_start, t_end, x.peaks, x.integrals, valid)
+    recorded = model.bearings and x.fatigue.shape[-1]
+    fatigue = _fatigue_stats(x.fatigue, t_start, t_end, valid) if recorded else None
     return _outputs(
-        model,
-        ts,
-        functools.partial(output_rows, final),
-        final.written,
-        full_rows(final),
-        Contacts(onset_t, onset_v, onset_i, onset_valid, end, peak, peak_time),
-        segments,
-        fatigue,
-        result,
-        t_final,
-        final.steps,
-        final.rejected,
-        jnp.sum(used),
+        model, ts, rows, written, full, Contacts(*contacts(x)), segments, fatigue, result, x.t,
+        x.steps, x.rejected, n_segments, x.events,
     )
 
 
@@ -502,10 +477,10 @@ def _fatigue_stats(integrals, t_start, t_end, valid) -> FatigueStats:
 
 def _outputs(
     model, ts, rows, written, full, contacts, segments, fatigue, result, t_final, steps, rejected,
-    n_used,
+    n_used, n_events,
 ):
     """The `Solution`: the states, approach speeds and engaged balls at the output times
-    (``rows(start, size)``, `_segment.output_rows`; the first ``written`` reached, the first
+    (``rows(start, size)``, `_segments.output_rows`; the first ``written`` reached, the first
     ``full`` in full blocks) and what is evaluated from them."""
     n = model.n_coordinates
 
@@ -547,6 +522,7 @@ def _outputs(
         num_steps=steps,
         num_rejected_steps=rejected,
         num_segments=n_used,
+        num_events=n_events,
         target=3 * model.contacts[0].body_k if model.contacts else None,
     )
 
@@ -603,13 +579,13 @@ def _raise_on_failure(sol: Solution, t1, rules) -> Solution:
                 cause = ""  # the result says it all
             elif bool(located):
                 cause = (
-                    " Likely cause: the event's root finder did not converge on an event time (an "
-                    "event value that neither crosses zero continuously nor jumps by more than 1 nm)."
+                    " Likely cause: the event's root finder did not narrow the event time within "
+                    f"{ROOT_STEPS} steps (an event value that is not finite along the step)."
                 )
             else:
                 cause = (
                     " Likely cause: a step limit too low for stiff contacts (raise max_steps), more "
-                    "contact events than max_segments (raise max_segments), tolerances float64 "
+                    "iterations than max_segments x segment_steps (raise max_segments), tolerances float64 "
                     "cannot meet (rtol below about 1e-13), or parameters that make the model blow "
                     "up (check stiffness, clearance and masses)."
                 )

@@ -1,5 +1,5 @@
-"""Where segments end and what each writes: the stops (time-cell ends and window edges), the
-output block of a segment, and the solver settings that depend on the adjoint and controller."""
+"""Where steps end (the stops: `WINDOW_START`, the window edges, t1), the output block of a
+segment, and the solver settings that depend on the adjoint and the controller."""
 
 from __future__ import annotations
 
@@ -12,15 +12,14 @@ import optimistix as optx
 _FROM_CONTROLLER = diffrax.with_stepsize_controller_tols(optx.Chord)().rtol
 OUTPUT_BLOCK = 64  # output times a segment evaluates and writes together (`default_output_block`)
 
-def _stops(t0, t1, time_cells, extra):
-    """Times at which segments end, increasing: the ends of the ``time_cells`` equal cells of
-    [t0, t1] and the ``extra`` times inside (t0, t1). A static count: the extra times outside,
-    and a stop equal to its predecessor, move to t1, where the loop finishes."""
-    cells = jnp.linspace(t0, t1, time_cells + 1)[1:].at[-1].set(t1)
+def stops(t0, t1, extra):
+    """The times at which steps end, increasing: `WINDOW_START` and the window edges
+    (``extra``) inside (t0, t1), and t1. A static count: the times outside (t0, t1), and a
+    time equal to its predecessor, move to t1, where the run finishes."""
     extra = jnp.where((extra > t0) & (extra < t1), extra, t1)
-    stops = jnp.sort(jnp.concatenate([cells, extra]))
-    repeated = jnp.concatenate([jnp.zeros(1, bool), stops[1:] == stops[:-1]])
-    return jnp.sort(jnp.where(repeated, t1, stops))
+    times = jnp.sort(jnp.concatenate([extra, t1[None]]))
+    repeated = jnp.concatenate([jnp.zeros(1, bool), times[1:] == times[:-1]])
+    return jnp.sort(jnp.where(repeated, t1, times))
 
 
 def default_output_block(ts) -> int:
@@ -29,7 +28,7 @@ def default_output_block(ts) -> int:
     return min(OUTPUT_BLOCK, ts.shape[0])
 
 
-def _with_root_tolerances(solver, controller):
+def with_root_tolerances(solver, controller):
     """An implicit solver whose root finder takes the step controller's tolerances where it asks
     for them (`diffrax.with_stepsize_controller_tols`), as `diffeqsolve` does for an unwrapped
     solver."""
@@ -51,10 +50,11 @@ def _with_root_tolerances(solver, controller):
     )
 
 
-def _for_adjoint(solver, adjoint):
-    """A Runge–Kutta solver whose stage loop forward mode can differentiate ("lax"), as
-    `diffeqsolve` chooses it for an unwrapped solver under `diffrax.ForwardMode`."""
+def for_loop_kind(solver, kind: str):
+    """A Runge–Kutta solver whose stage loop is of the ``kind`` of the solve's loops
+    (`_segments.loop_kind`), as `diffeqsolve` chooses it for an unwrapped solver: "lax" for
+    forward mode, "bounded" for both modes; diffrax's default (reverse mode) otherwise."""
     runge_kutta = isinstance(solver, diffrax.AbstractRungeKutta)
-    if not isinstance(adjoint, diffrax.ForwardMode) or not runge_kutta or solver.scan_kind is not None:
+    if kind == "checkpointed" or not runge_kutta or solver.scan_kind is not None:
         return solver
-    return eqx.tree_at(lambda s: s.scan_kind, solver, "lax", is_leaf=lambda x: x is None)
+    return eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)

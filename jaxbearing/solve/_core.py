@@ -1,0 +1,574 @@
+"""The integrator core: one iteration of the solve (`advance`), which both drivers repeat.
+
+State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
+(Lankarani–Nikravesh, Eq. 23), and the paper's ball force (Eq. 9) switches each ball's damping
+on at first touch, so the right-hand side changes at events: a penetration crossing zero
+(onset) or falling below -`SEPARATION_OFFSET` (separation), a paper-force ball's deflection
+crossing zero (engagement) or falling below -`BALL_RELEASE` (release). Between events it is
+smooth. An iteration is either
+
+- a step attempt: the solver's step (``solver.step``, diffrax's public solver API) to the
+  controller's proposed time, cut at the next stop; the step-size controller
+  (``adapt_step_size``) accepts or rejects it. An accepted step after which an event value is
+  positive is not taken: its member locates the event in the next iterations. Otherwise the
+  step is recorded: its `SegmentStats` and `FatigueStats` (`_recording._step_stats`), and the
+  dense row the outputs are read from (`Row`);
+- or one step of the ITP root finder (`itp_step`) on the held step's interpolant. When the
+  bracket is narrower than `EVENT_TIME_TOLERANCE`, the step is recorded up to the event time
+  (the bracket's upper end, where the event value is across zero), what the event found is
+  switched (`_switch`), and the next step starts there with the solver's first stage evaluated
+  anew (diffrax's ``made_jump``). The event time carries the tangent of the implicit function
+  theorem (`_event_time`), not that of the bisection iterates.
+
+A single run branches between the two (`jax.lax.cond`); under `jax.vmap` both are evaluated and
+each member selects its own, so a batch runs as one loop in which every member goes its own way.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+
+from ..laws.bearing import BALL_RELEASE
+from ..solution import PEAK_CONTACT_FORCE, RESULTS
+from ._recording import INTEGRALS, Peaks, _add, _forces, _step_stats, fatigue_size, no_peaks, point_peaks
+
+SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
+EVENT_TIME_TOLERANCE = 1e-13  # [s] width of the bracket that locates an event time
+JUMP = SEPARATION_OFFSET  # [m] an event value this far from 0 after a step shrunk below
+# `SMALLEST_STEP` is a jump (a continuous one would move at 1e6 m/s)
+ROOT_STEPS = 64  # root-finder steps after which an event counts as not located (a NaN value)
+SMALLEST_STEP = 1e-15  # [s] a member whose proposed step falls below it has failed
+ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
+ITP_SLACK = 1  # steps allowed beyond bisection's (the method's n0)
+_NOT_LOCATED = RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
+
+
+class ITPState(eqx.Module):
+    """The ITP root finder's state (Oliveira and Takahashi, ACM Trans. Math. Software 47(1),
+    2020): each step evaluates f at a regula-falsi point nudged towards the bracket's midpoint
+    and kept within a radius of it that shrinks as bisection's bracket would, then keeps the
+    half that holds the sign change. It never takes more than `ITP_SLACK` steps more than
+    bisection to the same bracket width, and converges superlinearly on a smooth f (the step's
+    interpolant), so a batch waits few iterations for its slowest member. Times in s."""
+
+    lower: jax.Array  # bracket [lower, upper] [s], g(lower) <= 0 <= g(upper)
+    upper: jax.Array
+    g_lower: jax.Array  # g = f, or -f where f falls over the bracket
+    g_upper: jax.Array
+    flip: jax.Array  # f(lower) > f(upper)
+    next: jax.Array  # where the next step evaluates f [s]
+    reach: jax.Array  # [s] half the bracket width bisection would allow at this step, plus
+    # `ITP_SLACK` halvings: the point stays within reach - width / 2 of the midpoint
+    kappa: jax.Array  # truncation factor [1/s]
+
+
+def itp_start(lower, upper, f_lower, f_upper, atol) -> ITPState:
+    """The ITP state for the bracket [lower, upper] [s] with f there, and its first point."""
+    lower = jnp.where(f_upper == 0, upper, lower)
+    flip = f_lower > f_upper
+    width = upper - lower
+    halvings = jnp.ceil(jnp.log2(jnp.maximum(width / atol, 1.0)))
+    state = ITPState(
+        lower=lower,
+        upper=upper,
+        g_lower=jnp.where(flip, -f_lower, f_lower),
+        g_upper=jnp.where(flip, -f_upper, f_upper),
+        flip=flip,
+        next=upper,
+        reach=(0.5 * atol) * 2.0 ** (halvings + ITP_SLACK),
+        kappa=ITP_KAPPA / jnp.where(width > 0, width, 1.0),
+    )
+    return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
+
+
+def itp_step(state: ITPState, value) -> ITPState:
+    """One ITP step: ``value`` is f at ``state.next``; the bracket keeps the half that holds
+    the sign change, and ``next`` becomes the point to evaluate after it."""
+    x = state.next
+    g = jnp.where(state.flip, -value, value)
+    below, above = g <= 0, g >= 0  # both at a root: the bracket collapses onto it
+    state = ITPState(
+        lower=jnp.where(below, x, state.lower),
+        upper=jnp.where(above, x, state.upper),
+        g_lower=jnp.where(below, g, state.g_lower),
+        g_upper=jnp.where(above, g, state.g_upper),
+        flip=state.flip,
+        next=x,
+        reach=0.5 * state.reach,
+        kappa=state.kappa,
+    )
+    return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
+
+
+def _itp_point(state: ITPState) -> jax.Array:
+    """The regula-falsi point of ``state``'s bracket, nudged towards the midpoint (truncation)
+    and kept within ``reach`` of it (projection)."""
+    a, b, ga, gb = state.lower, state.upper, state.g_lower, state.g_upper
+    half = 0.5 * (a + b)
+    width = b - a
+    radius = jnp.maximum(state.reach - 0.5 * width, 0.0)
+    nudge = state.kappa * (width * width)
+    secant = gb != ga
+    falsi = jnp.where(secant, a - (ga * width) / jnp.where(secant, gb - ga, 1.0), half)
+    sigma = jnp.sign(half - falsi)
+    truncated = jnp.where(nudge <= jnp.abs(half - falsi), falsi + sigma * nudge, half)
+    point = jnp.where(jnp.abs(truncated - half) <= radius, truncated, half - sigma * radius)
+    return jnp.clip(point, a, b)
+
+
+def event_values(model, t, y, in_contact, engaged):
+    """One value per contact, then one per switched ball, each negative until its next event.
+    Contacts: the penetration while apart (onset at 0), -(penetration + SEPARATION_OFFSET) while
+    touching, -1 while switched off (``active``). Balls: delta_r while free (engages at 0),
+    -(delta_r + BALL_RELEASE) while engaged."""
+    n = model.n_coordinates
+    q, qd = y[:n], y[n:]
+    penetration, _ = model.contact_gaps(q, qd)
+    contact = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
+    active = jnp.stack([c.active(t) for c in model.contacts]) if model.contacts else contact > 0
+    delta = model.ball_deflections(t, q)
+    ball = jnp.where(engaged, -(delta + BALL_RELEASE), delta)
+    return jnp.concatenate([jnp.where(active, contact, -1.0), ball])
+
+
+def _event_value(model, t, y, in_contact, engaged):
+    """The largest event value: it crosses zero at the first event (-1 without events)."""
+    return jnp.max(event_values(model, t, y, in_contact, engaged), initial=-1.0)
+
+
+def _event_time(event, t_root):
+    """The event time ``t_root`` [s] located by the root finder, with the tangent of the implicit
+    function theorem: the event value ``event(t)`` (along the step's interpolant) is 0 there, so
+    dt = -(d event / d parameters) / (d event / dt)."""
+    t_root = jax.lax.stop_gradient(t_root)
+    value, slope = jax.jvp(event, (t_root,), (jnp.ones_like(t_root),))
+    slope = jax.lax.stop_gradient(slope)
+    moved = value - jax.lax.stop_gradient(value)  # 0, with the tangent of the value at fixed t
+    return t_root - jnp.where(slope != 0, moved / jnp.where(slope != 0, slope, 1.0), 0.0)
+
+
+def _switch(model, state, t, y, hit):
+    """Switch what the event at (t, y) found, the located value and any other already across:
+    (approach, in_contact, engaged, onset (time, approach speed, contact index, any), separated
+    (n_contacts,) bool, overlap). ``overlap``: a contact switched on (its ``active_from``) with
+    its surfaces overlapping by more than `SEPARATION_OFFSET`."""
+    approach, in_contact = state.approach, state.in_contact
+    n, n_contacts = model.n_coordinates, len(model.contacts)
+    values = event_values(model, t, y, in_contact, state.engaged)
+    located = jnp.arange(values.shape[0]) == jnp.argmax(values)
+    switch = (located | (values > 0)) & hit
+    contact_switch, ball_switch = switch[:n_contacts], switch[n_contacts:]
+    engaged = jnp.where(ball_switch, ~state.engaged, state.engaged)
+    onset = contact_switch & ~in_contact
+    separated = contact_switch & in_contact
+    overlap = jnp.zeros((), bool)
+    speed = jnp.zeros((), t.dtype)
+    if n_contacts:
+        penetration, rate = model.contact_gaps(y[:n], y[n:])
+        approach = jnp.where(onset, rate, approach)
+        overlap = jnp.any(onset & (penetration > SEPARATION_OFFSET))
+        speed = jnp.sum(jnp.where(onset, rate, 0.0))
+        in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
+    record = (t, speed, jnp.argmax(onset).astype(int) if n_contacts else jnp.asarray(-1), jnp.any(onset))
+    return approach, in_contact, engaged, record, separated, overlap
+
+
+class Setup(NamedTuple):
+    """What every iteration of one solve shares."""
+
+    model: object  # the Mechanism
+    term: diffrax.ODETerm
+    solver: diffrax.AbstractSolver
+    controller: diffrax.AbstractStepSizeController
+    stops: jax.Array  # (n_stops,) step ends [s], increasing; the last is t1
+    t1: jax.Array  # [s]
+    max_steps: jax.Array  # int: steps (accepted and rejected) the run may take
+    fatigue: bool  # record `FatigueStats` integrals
+
+
+class State(NamedTuple):
+    """The solve's state between two iterations, one member."""
+
+    t: jax.Array  # [s]
+    y: jax.Array  # [q, qd] at t
+    solver_state: object  # the solver's state at (t, y)
+    made_jump: jax.Array  # the right-hand side changed at t (the solver re-evaluates its first stage)
+    h: jax.Array  # next step [s], as the controller proposed it
+    control: object  # the step-size controller's state
+    cell: jax.Array  # index of the next stop
+    approach: jax.Array  # (n_contacts,) approach speed of each contact in force [m/s]
+    in_contact: jax.Array  # (n_contacts,) bool
+    engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
+    locating: jax.Array  # the held step crossed an event: its time is being located
+    step_end: jax.Array  # [s] the held step's end
+    step_dense: object  # its interpolant's data (the solver's dense info)
+    step_h: jax.Array  # [s] the step the controller proposed after it
+    root: ITPState
+    root_steps: jax.Array
+    peaks: Peaks  # (n_stops, ...) peaks of each stop interval so far (`SegmentStats`)
+    integrals: jax.Array  # (n_stops, INTEGRALS)
+    fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals
+    onsets: tuple  # (time, approach speed, contact index) of each onset, each (max_onsets,)
+    spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact
+    n_onsets: jax.Array
+    current: jax.Array  # (n_contacts,) the onset slot of each contact in force, -1 for none
+    events: jax.Array  # events located
+    steps: jax.Array
+    rejected: jax.Array
+    done: jax.Array  # reached t1 or failed
+    result: RESULTS
+
+
+class Row(NamedTuple):
+    """What an iteration records for the output times: the step it took, [start, end] of the
+    interpolant over [start, step_end] (end < step_end where it ends at an event), and the
+    switches in force during it."""
+
+    recorded: jax.Array
+    start: jax.Array
+    end: jax.Array
+    step_end: jax.Array
+    dense: object
+    approach: jax.Array
+    engaged: jax.Array
+
+
+def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
+    """At t0: nothing in contact, the balls with delta_r > 0 engaged, the initial state's peaks
+    recorded in the first interval; done at once, with `RESULTS.invalid_input`, where
+    ``invalid`` (a rule of the run is broken)."""
+    model = s.model
+    n, n_contacts = model.n_coordinates, len(model.contacts)
+    approach = jnp.zeros(n_contacts)
+    in_contact = jnp.zeros(n_contacts, bool)
+    engaged = model.ball_deflections(t0, model.q0) > 0.0
+    args = (approach, in_contact, engaged)
+    q, qd = y0[:n], y0[n:]
+    start = point_peaks(model, t0, q, _forces(model, t0, q, qd, approach, engaged))
+    rows = s.stops.shape[:1]
+    peaks = jax.tree_util.tree_map(lambda x, v: x.at[0].set(v), no_peaks(model, rows), start)
+    error_order = s.solver.error_order(s.term)
+    func = s.solver.func
+    t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
+    solver_state = s.solver.init(s.term, t0, t_next, y0, args)
+    dense = _dense_shape(s, t0, t_next, y0, args, solver_state)
+    zero = jnp.zeros((), y0.dtype)
+    slots = lambda x: jnp.full(max_onsets, x)  # noqa: E731
+    return State(
+        t=t0,
+        y=y0,
+        solver_state=solver_state,
+        made_jump=jnp.asarray(False),
+        h=t_next - t0,
+        control=control,
+        cell=jnp.asarray(0),
+        approach=approach,
+        in_contact=in_contact,
+        engaged=engaged,
+        locating=jnp.asarray(False),
+        step_end=t0,
+        step_dense=dense,
+        step_h=zero,
+        root=ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero),
+        root_steps=jnp.asarray(0),
+        peaks=peaks,
+        integrals=jnp.zeros(rows + (INTEGRALS,)),
+        fatigue=jnp.zeros(rows + (fatigue_size(model, s.fatigue),)),
+        onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
+        spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
+        n_onsets=jnp.asarray(0),
+        current=jnp.full(n_contacts, -1),
+        events=jnp.asarray(0),
+        steps=jnp.asarray(0),
+        rejected=jnp.asarray(0),
+        done=invalid,
+        result=RESULTS.where(invalid, RESULTS.invalid_input, RESULTS.successful),
+    )
+
+
+def _dense_shape(s: Setup, t0, t1, y0, args, solver_state):
+    """Zeros shaped as the solver's dense info, y0 in its state-shaped leaves."""
+    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t1, y0, args, solver_state, False)
+    return jax.tree_util.tree_map(
+        lambda x: y0 if x.shape == y0.shape else jnp.zeros(x.shape, x.dtype), out[2]
+    )
+
+
+class _Outcome(NamedTuple):
+    """What an iteration's branch decides (`_locate`, `_attempt`)."""
+
+    t: jax.Array
+    y: jax.Array
+    solver_state: object
+    made_jump: jax.Array
+    h: jax.Array
+    control: object
+    switches: tuple  # (approach, in_contact, engaged)
+    locating: jax.Array
+    step: tuple  # (step_end, step_dense, step_h) of the held step
+    root: ITPState
+    root_steps: jax.Array
+    row: Row  # the step recorded by this iteration (``row.recorded``)
+    onset: tuple  # (time, approach speed, contact index, any)
+    separated: jax.Array  # (n_contacts,) bool
+    at_stop: jax.Array  # the iteration ends at the next stop
+    located: jax.Array
+    failure: RESULTS  # successful unless this iteration failed
+    stepped: jax.Array  # attempted a step (counts against max_steps)
+    rejected: jax.Array
+
+
+def _args(x: State):
+    return (x.approach, x.in_contact, x.engaged)
+
+
+def _stop(s: Setup, x: State):
+    """The next stop [s] (a sum of selects: a batch evaluates it elementwise)."""
+    return jnp.sum(jnp.where(jnp.arange(s.stops.shape[0]) == x.cell, s.stops, 0.0))
+
+
+def _interpolation(s: Setup, t0, t1, dense):
+    return s.solver.interpolation_cls(t0=t0, t1=t1, **dense)
+
+
+def _no_onset(t):
+    nan = jnp.full((), jnp.nan, t.dtype)
+    return nan, nan, jnp.asarray(-1), jnp.asarray(False)
+
+
+def _locate(s: Setup, x: State) -> _Outcome:
+    """One root-finder step on the held step; where the bracket is narrow enough, the event."""
+    model = s.model
+    interpolation = _interpolation(s, x.t, x.step_end, x.step_dense)
+
+    def along(t):  # the event value along the held step's interpolant
+        return _event_value(model, t, interpolation.evaluate(t), x.in_contact, x.engaged)
+
+    root = jax.lax.stop_gradient(itp_step(x.root, along(x.root.next)))  # tangents: `_event_time`
+    located = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
+    lost = ~located & (x.root_steps + 1 >= ROOT_STEPS)
+    t_event = _event_time(along, root.upper)
+    y_event = interpolation.evaluate(t_event)
+    approach, in_contact, engaged, onset, separated, overlap = _switch(model, x, t_event, y_event, located)
+    keep = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(located, u, v), a, b)  # noqa: E731
+    failure = RESULTS.where(lost, _NOT_LOCATED, RESULTS.successful)
+    failure = RESULTS.where(located & overlap, RESULTS.contact_overlap, failure)
+    row = Row(located, x.t, t_event, x.step_end, x.step_dense, x.approach, x.engaged)
+    return _Outcome(
+        t=jnp.where(located, t_event, x.t),
+        y=jnp.where(located, y_event, x.y),
+        solver_state=x.solver_state,
+        made_jump=x.made_jump | located,
+        h=jnp.where(located, x.step_h, x.h),
+        control=x.control,
+        switches=keep((approach, in_contact, engaged), _args(x)),
+        locating=~located,
+        step=(x.step_end, x.step_dense, x.step_h),
+        root=root,
+        root_steps=x.root_steps + 1,
+        row=row,
+        onset=onset,
+        separated=separated,
+        at_stop=located & (t_event >= _stop(s, x)),
+        located=located,
+        failure=failure,
+        stepped=jnp.asarray(False),
+        rejected=jnp.asarray(False),
+    )
+
+
+def _attempt(s: Setup, x: State) -> _Outcome:
+    """A step attempt: the solver's step to the proposed time, cut at the next stop, and the
+    controller's verdict; an accepted step across an event starts locating it."""
+    model, args = s.model, _args(x)
+    stop = _stop(s, x)
+    last = x.h >= stop - x.t
+    h = jnp.where(last, stop - x.t, x.h)
+    t_b = jnp.where(last, stop, x.t + h)
+    y1, y_error, dense, solver_state, solver_ok = s.solver.step(
+        s.term, x.t, t_b, x.y, args, x.solver_state, x.made_jump
+    )
+    failed = (solver_ok != diffrax.RESULTS.successful) | ~jnp.all(jnp.isfinite(y1))
+    y_error = jnp.where(failed | jnp.isnan(y_error), jnp.inf, y_error)
+    error_order = s.solver.error_order(s.term)
+    keep, _, next_t1, _, control, _ = s.controller.adapt_step_size(
+        x.t, t_b, x.y, y1, args, y_error, error_order, x.control
+    )
+    keep = keep & ~failed & jnp.isfinite(next_t1)
+    h_next = jnp.where(jnp.isfinite(next_t1), next_t1 - jnp.where(keep, t_b, x.t), 0.2 * h)
+    # a step cut short at a stop proposes from its short length: go on with the longer one
+    h_next = jnp.where(keep & last, jnp.maximum(h_next, x.h), h_next)
+    value_b = _event_value(model, t_b, y1, x.in_contact, x.engaged)
+    crossed = keep & (value_b > 0)
+    accept = keep & ~crossed
+    started = jax.lax.cond(
+        crossed,
+        lambda: jax.lax.stop_gradient(itp_start(
+            x.t, t_b, _event_value(model, x.t, x.y, x.in_contact, x.engaged), value_b,
+            EVENT_TIME_TOLERANCE,
+        )),
+        lambda: x.root,
+    )
+    too_small = ~keep & (h_next < SMALLEST_STEP)
+    # a step shrunk to nothing whose event value at its end is above `JUMP` holds a jump: a
+    # contact switched on (``active_from``) while its surfaces overlap, whose force jumps too,
+    # so that no step across is accepted
+    failure = RESULTS.where(too_small, RESULTS.dt_min_reached, RESULTS.successful)
+    failure = RESULTS.where(too_small & (value_b > JUMP), RESULTS.contact_overlap, failure)
+    choose = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(accept, u, v), a, b)  # noqa: E731
+    held = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(crossed, u, v), a, b)  # noqa: E731
+    return _Outcome(
+        t=jnp.where(accept, t_b, x.t),
+        y=jnp.where(accept, y1, x.y),
+        solver_state=choose(solver_state, x.solver_state),
+        made_jump=jnp.where(accept, False, x.made_jump),
+        h=h_next,
+        control=control,
+        switches=_args(x),
+        locating=crossed,
+        step=held((t_b, dense, h_next), (x.step_end, x.step_dense, x.step_h)),
+        root=started,
+        root_steps=jnp.zeros_like(x.root_steps),
+        row=Row(accept, x.t, t_b, t_b, dense, x.approach, x.engaged),
+        onset=_no_onset(x.t),
+        separated=jnp.zeros_like(x.in_contact),
+        at_stop=accept & last,
+        located=jnp.asarray(False),
+        failure=failure,
+        stepped=jnp.asarray(True),
+        rejected=~keep,
+    )
+
+
+def advance(s: Setup, x: State) -> tuple[State, Row]:
+    """One iteration (module docstring) of a member that is not done: a step attempt, or a
+    root-finder step where an event is being located. Returns the next state and the step it
+    recorded. (The drivers' loops stop at ``done``; under vmap a while loop keeps the state of
+    a member whose condition is false.)"""
+    model = s.model
+    if model.contacts or model.n_switched_balls:
+        o = jax.lax.cond(x.locating, lambda x: _locate(s, x), lambda x: _attempt(s, x), x)
+    else:
+        o = _attempt(s, x)
+    row = o.row
+    here = jnp.arange(s.stops.shape[0]) == x.cell
+    rows = jax.tree_util.tree_map(lambda a: _row(a, here), (x.peaks, x.integrals, x.fatigue))
+    stats = jax.lax.cond(
+        row.recorded,
+        lambda: _step_stats(
+            model, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
+            _args(x), s.fatigue, _running(x, rows[0]),
+        ),
+        lambda: (no_peaks(model), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
+    )
+    rows = jax.tree_util.tree_map(lambda a, b: jnp.where(row.recorded, a, b), _add(rows, stats), rows)
+    into = lambda a, r: jnp.where(_rows_mask(here, a), jnp.broadcast_to(r, a.shape), a)  # noqa: E731
+    onset = o.located & o.onset[3]
+    separated = o.separated
+    overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])
+    slot = onset & (jnp.arange(x.onsets[0].shape[0]) == x.n_onsets)
+    onsets = tuple(jnp.where(slot, v, a) for a, v in zip(x.onsets, o.onset[:3]))
+    spans, current = _spans(x, row.recorded, stats[0], separated, o.t, onset, o.onset[2])
+    stop = _stop(s, x)
+    at_stop = o.at_stop
+    reached = at_stop & (stop >= s.t1)
+    out_of_steps = o.stepped & (x.steps + 1 >= s.max_steps) & ~reached
+    failure = RESULTS.where(out_of_steps, RESULTS.max_steps_reached, o.failure)
+    failure = RESULTS.where(overflow, RESULTS.max_onsets_reached, failure)
+    failed = failure != RESULTS.successful
+    state = State(
+        t=o.t,
+        y=o.y,
+        solver_state=o.solver_state,
+        made_jump=o.made_jump,
+        h=o.h,
+        control=o.control,
+        cell=x.cell + (at_stop & ~reached),
+        approach=o.switches[0],
+        in_contact=o.switches[1],
+        engaged=o.switches[2],
+        locating=o.locating,
+        step_end=o.step[0],
+        step_dense=o.step[1],
+        step_h=o.step[2],
+        root=o.root,
+        root_steps=o.root_steps,
+        peaks=jax.tree_util.tree_map(into, x.peaks, rows[0]),
+        integrals=into(x.integrals, rows[1]),
+        fatigue=into(x.fatigue, rows[2]),
+        onsets=onsets,
+        spans=spans,
+        n_onsets=x.n_onsets + (onset & ~overflow),
+        current=current,
+        events=x.events + o.located,
+        steps=x.steps + o.stepped,
+        rejected=x.rejected + o.rejected,
+        done=reached | failed,
+        result=RESULTS.where(failed, failure, x.result),
+    )
+    return state, row
+
+
+def _running(x: State, peaks: Peaks) -> Peaks:
+    """The peaks so far that decide whether a step is refined between its points: the stop
+    interval's, and for the contact force the lower of that and the current contact's so far
+    (-inf outside a contact), so that both peaks are the interpolant's."""
+    if not x.current.shape[0]:
+        return peaks
+    current = jnp.arange(x.spans[1].shape[0]) == x.current[0]
+    so_far = jnp.max(jnp.where(current & x.in_contact[0], x.spans[1], -jnp.inf))
+    contact = jnp.minimum(peaks.values[PEAK_CONTACT_FORCE], so_far)
+    return peaks._replace(values=peaks.values.at[PEAK_CONTACT_FORCE].set(contact))
+
+
+def _spans(x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
+    """``spans`` and ``current`` after an iteration: the first contact's peak joins its
+    contact's where a step in contact was recorded (``peaks``: the step's), the contacts that
+    ``separated`` end at ``t_event``, and an ``onset`` of contact ``index`` takes the next slot."""
+    if not x.current.shape[0]:
+        return x.spans, x.current
+    slots = jnp.arange(x.spans[0].shape[0])
+    end, peak, peak_time = x.spans
+    value, when = peaks.values[PEAK_CONTACT_FORCE], peaks.times[PEAK_CONTACT_FORCE]
+    later = recorded & x.in_contact[0] & (slots == x.current[0]) & (value > peak)
+    peak, peak_time = jnp.where(later, value, peak), jnp.where(later, when, peak_time)
+    ends = jnp.any(separated[:, None] & (slots[None, :] == x.current[:, None]), axis=0)
+    end = jnp.where(ends, t_event, end)
+    starts = onset & (jnp.arange(x.current.shape[0]) == index) & (x.n_onsets < slots.shape[0])
+    current = jnp.where(separated, -1, jnp.where(starts, x.n_onsets, x.current))
+    return (end, peak, peak_time), current
+
+
+def _rows_mask(rows, x):
+    """``rows`` (R,) shaped to broadcast against ``x`` (R, ...)."""
+    return rows.reshape(rows.shape + (1,) * (x.ndim - 1))
+
+
+def _row(x, here):
+    """The row of ``x`` (rows, ...) where the one-hot ``here`` is true: a sum of selects, which
+    a batch evaluates elementwise (a vmapped index would be a gather)."""
+    return jnp.sum(jnp.where(_rows_mask(here, x), x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
+
+
+def contacts(x: State):
+    """`Contacts` fields from the final state: (time, approach speed, index, valid, end, peak
+    force, peak time), each (max_onsets,)."""
+    time, speed, index = x.onsets
+    kept = jnp.arange(time.shape[0]) < x.n_onsets
+    end, peak, peak_time = x.spans
+    found = kept & (index == 0) & (peak > -jnp.inf)
+    return (
+        jnp.where(kept, time, jnp.nan),
+        jnp.where(kept, speed, jnp.nan),
+        jnp.where(kept, index, -1),
+        kept,
+        jnp.where(kept, end, jnp.nan),
+        jnp.where(found, peak, jnp.nan),
+        jnp.where(found, peak_time, jnp.nan),
+    )
