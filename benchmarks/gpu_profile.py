@@ -11,7 +11,9 @@ compilation (untraced), then from a traced call: the device kernels (events on t
 lines; on the CPU nothing is counted), the time they kept the device busy, and the kernels that
 took the most of it. For the single run also steps and kernels a step. ``--stages-written``:
 the same with `WrittenTsit5` instead of diffrax's Tsit5 (docs/performance.md, 2026-11-26).
-``--one-loop``: `jaxbearing.simulate_one_loop`, and sweeps with ``solve="one_loop"``.
+``--one-loop``: the single run with `jaxbearing.simulate_one_loop` (sweeps without output
+samples run their members so anyway; without ``--one-loop`` they are given 2 output times, so
+that their members run as `simulate`).
 """
 
 import argparse
@@ -113,9 +115,9 @@ def main(out, t1, sweeps, solver=None, one_loop=False):
             "bearing.clearance": np.linspace(*SWEEP_CLEARANCES, n),
             "impact.restitution": np.linspace(*SWEEP_RESTITUTIONS, n),
         }
-        settings = dict(solve="one_loop")
-        if not one_loop:
-            settings = dict(options=jb.SolveOptions(max_segments=max_segments), solver=solver)
+        settings = dict(solver=solver)
+        if not one_loop:  # output times make the members run as simulate
+            settings.update(options=jb.SolveOptions(max_segments=max_segments), ts=ts)
         run = lambda: jb.sweep(model, grid, t1=t1, progress=False, chunk_size=n * n, **settings)  # noqa: E731
         start = time.perf_counter()
         wall, ds, events = _profiled(run, Path(out) / f"sweep{n * n}")
@@ -132,7 +134,7 @@ if __name__ == "__main__":
     parser.add_argument(
         "--stages-written", action="store_true", help="WrittenTsit5 instead of diffrax's Tsit5"
     )
-    parser.add_argument("--one-loop", action="store_true", help="simulate_one_loop, sweeps with solve='one_loop'")
+    parser.add_argument("--one-loop", action="store_true", help="the single run with simulate_one_loop; sweeps as the sweep picks")
     args = parser.parse_args()
     if args.sweep and args.t1 <= jb.metrics.T_MIN:  # the sweeps' standard metrics need their window
         parser.error(f"sweeps need t1 > {jb.metrics.T_MIN} s (metrics.T_MIN, where the metrics' window starts)")

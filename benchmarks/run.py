@@ -3,7 +3,7 @@ machine.
 
     python benchmarks/run.py [--repeats 5] [--json benchmarks/results.json] [--quick]
                              [--only single,outputs,gradient,scipy,sweep]
-    python benchmarks/run.py --only gpu [--gpu-parts single,gradient,sweep,variants,one_loop]
+    python benchmarks/run.py --only gpu [--gpu-parts single,gradient,sweep,variants]
                              [--gpu-batches 256,1024,4096,16384,65536] [--reference-file F]
 
 Every CPU item runs jaxbearing as it comes: nothing is called or set beyond importing it, which
@@ -33,7 +33,8 @@ impact (0-0.2 s, 2001 output times):
   with exact contact events) for LSODA, BDF, Radau and RK45; the speed target compares RK45 with
   the default row;
 - sweep throughput [simulations/s] of `jaxbearing.sweep` over an 8 x 8 grid of clearance and
-  restitution on 1 and on 2 CPU devices, and on 2 with ``solve="one_loop"`` (`SWEEP_ROWS`), with
+  restitution on 1 and on 2 CPU devices, and on 2 with 2001 output samples, whose members then
+  run as `simulate`, not as one loop (`SWEEP_ROWS`; the dataset's ``solve`` says which ran), with
   the sweep's default output times (the standard metrics need none but [t0, t1]);
 - peak memory (maximum resident set size) of each measurement.
 
@@ -112,7 +113,7 @@ SWEEP_CLEARANCES = (20e-6, 80e-6)  # [m] range of the sweep grid
 SWEEP_RESTITUTIONS = (0.5, 0.95)
 SWEEP_CORNER = {"bearing.clearance": SWEEP_CLEARANCES[1], "impact.restitution": SWEEP_RESTITUTIONS[1]}
 SWEEP_CHECKED = ("peak_ball_load", "peak_bearing_force")  # metrics checked at the grid's corner
-SWEEP_ROWS = ((1, False), (2, False), (2, True))  # CPU sweeps: (devices, solve="one_loop")
+SWEEP_ROWS = ((1, 0), (2, 0), (2, N_TS))  # CPU sweeps: (devices, output times; 0: the sweep's default)
 GPU_BATCHES = (256, 1024, 4096, 16_384, 65_536)  # sweep points in one chunk on one GPU
 GPU_SWEEP_TS = 0  # output times of a GPU sweep member: the sweep's default ([t0, t1] for exact metrics)
 COMMAND_BUFFERS = "--xla_gpu_enable_command_buffer=+WHILE,+CONDITIONAL"  # CUDA graphs for loops
@@ -383,8 +384,6 @@ def _sweep(args):
     }
     ts = np.linspace(0.0, args.t1, args.sweep_ts) if args.sweep_ts else None  # None: the sweep's default
     kwargs = dict(t1=args.t1, ts=ts, progress=False, chunk_size=args.chunk_size or None)
-    if args.one_loop:
-        kwargs["solve"] = "one_loop"
     start = time.perf_counter()
     ds = jb.sweep(model, grid, **kwargs)
     first = time.perf_counter() - start
@@ -408,12 +407,12 @@ def _sweep(args):
         device_kind=device.device_kind,
         points=int(points),
         output_times=int(ds.attrs["ts"].size),
-        chunk_size=args.chunk_size or default_chunk_size(solve=kwargs.get("solve", "segments")),
+        chunk_size=args.chunk_size or default_chunk_size(solve=ds.attrs["solve"]),
         wall_s=wall,
         first_call_s=first,
         throughput=None if wall is None else points / wall,
         failed=int(ds.failed.sum()),
-        solve="one_loop" if args.one_loop else "segments",
+        solve=ds.attrs["solve"],
         relative_error=errors,
         accurate=bool(max(errors.values()) <= 1e-3 and int(ds.failed.sum()) == 0),
     )
@@ -467,7 +466,7 @@ def _scipy(args):
 
 GROUPS = ("single", "outputs", "gradient", "scipy", "sweep", "gpu")
 CPU_GROUPS = GROUPS[:-1]  # the default; "gpu" runs alone (--only gpu) into results_gpu.json
-GPU_PARTS = ("single", "gradient", "sweep", "variants", "one_loop")
+GPU_PARTS = ("single", "gradient", "sweep", "variants")
 ITEMS = {
     "reference": _reference,
     "single": _single,
@@ -660,11 +659,12 @@ def _reference_row(args, settings):
 def _sweep_rows(args, settings, results):
     results["sweep"] = []
     print("\nsweep throughput")
-    for devices, one_loop in SWEEP_ROWS:
+    for devices, n_ts in SWEEP_ROWS:
         row = _child("sweep", settings, devices=devices, sweep_n=args.sweep_n, chunk_size=args.chunk_size,
-                     one_loop=one_loop)
+                     sweep_ts=n_ts)
         results["sweep"].append(row)
-        kind = ', solve="one_loop"' if one_loop else ""
+        kind = f", {row['output_times']} output times" if n_ts else ""
+        kind += f", members as {'one loop' if row['solve'] == 'one_loop' else 'simulate'}"
         print(
             f"  {devices} device(s){kind}: {row['points']} points in {row['wall_s']:.2f} s = {row['throughput']:.2f} "
             f"simulations/s (first call {row['first_call_s']:.1f} s, {row['chunk_size']} per device per chunk)  "
@@ -678,8 +678,7 @@ def _gpu_rows(args, settings, results):
     CUDA-graph loops, and sweep throughput against batch size (one chunk of all points)."""
     gpu = results.setdefault("gpu", {})
     parts = args.gpu_parts.split(",")
-    flags = {"default": "", "command buffers": COMMAND_BUFFERS, "one loop": "",
-             "one loop, command buffers": COMMAND_BUFFERS}
+    flags = {"default": "", "command buffers": COMMAND_BUFFERS}
     if "single" in parts:
         gpu["single"] = []
         print("\nGPU: one simulation after compilation (Tsit5, paper ball force)")
@@ -710,9 +709,6 @@ def _gpu_rows(args, settings, results):
         runs += [(batch, GPU_SWEEP_TS, label) for batch in map(int, args.gpu_batches.split(","))]
     if "variants" in parts:  # at 4096 points: dense outputs, and CUDA-graph loops
         runs += [(4096, N_TS, "default"), (4096, GPU_SWEEP_TS, "command buffers")]
-    if "one_loop" in parts:  # the same sweeps with solve="one_loop"
-        label = "one loop, command buffers" if args.gpu_command_buffers else "one loop"
-        runs += [(batch, GPU_SWEEP_TS, label) for batch in map(int, args.gpu_batches.split(","))]
     if runs:
         gpu.setdefault("sweep", [])
         print("\nGPU: sweep throughput (one chunk of all points)")
@@ -720,7 +716,7 @@ def _gpu_rows(args, settings, results):
         n = int(round(batch**0.5))
         row = _child(
             "sweep", settings, platform="gpu", xla_flags=flags[label], sweep_n=n, chunk_size=n * n,
-            sweep_ts=n_ts, once=n * n > args.gpu_repeat_max, one_loop=label.startswith("one loop"),
+            sweep_ts=n_ts, once=n * n > args.gpu_repeat_max,
         )
         row["label"] = label
         gpu["sweep"].append(row)
@@ -751,8 +747,7 @@ def _targets(r) -> dict:
     kvaerno = next((row for row in singles if row["label"] == "Kvaerno5"), None)
     rk45 = next((row for row in r.get("scipy", []) if row["method"] == "RK45" and row["wall_s"]), None)
     two = [row for row in r.get("sweep", []) if row["devices"] == 2]
-    sweep2 = next((row for row in two if row.get("solve", "segments") == "segments"), None)
-    sweep2_one_loop = next((row for row in two if row.get("solve") == "one_loop"), None)
+    sweep2 = next((row for row in two if row["output_times"] == 2), None)  # the sweep's default
     if rk45 and default:
         ratio = rk45["wall_s"] / default["wall_s"]
         met = ratio >= 30.0 and rk45["accurate"] and default["accurate"]
@@ -777,9 +772,6 @@ def _targets(r) -> dict:
     if sweep2:
         rate = sweep2["throughput"]
         targets[">= 25 simulations/s on 2 CPU devices"] = (rate, rate >= 25.0)
-    if sweep2_one_loop:
-        rate = sweep2_one_loop["throughput"]
-        targets['>= 25 simulations/s on 2 CPU devices, solve="one_loop"'] = (rate, rate >= 25.0)
     if default and xla_defaults:
         gain = xla_defaults["wall_s"] / default["wall_s"]
         targets[f"loop flag buys >= {FLAG_GAIN}x (XLA defaults / default)"] = (gain, gain >= FLAG_GAIN)
@@ -815,7 +807,6 @@ def main(argv=None):
     parser.add_argument("--method")
     parser.add_argument("--sweep-ts", type=int, default=0, help="output times of a sweep member (0: the sweep's default)")
     parser.add_argument("--once", action="store_true", help="time a sweep's first call only")
-    parser.add_argument("--one-loop", action="store_true", help='a sweep with solve="one_loop"')
     parser.add_argument("--reference-file", help="reference runs: reuse this npz if it exists, else write it")
     args = parser.parse_args(argv)
     if args.item:

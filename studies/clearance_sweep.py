@@ -9,14 +9,13 @@ interruption), then ``OUT/results.nc`` and one heatmap PNG per metric.
     python studies/clearance_sweep.py             # 8 x 4 grid, 5–80 µm x e 0.5–1.0, 0–0.2 s
     python studies/clearance_sweep.py --quick     # 2 x 2 grid, 0–0.12 s (first impacts)
     python studies/clearance_sweep.py --out DIR --samples 20001
-    python studies/clearance_sweep.py --grid 256 256 --solve one_loop   # a dense map, on a GPU
+    python studies/clearance_sweep.py --grid 256 256   # a dense map, on a GPU
 
 Prints the throughput in simulations per second (with and without the first chunk, which
 includes compilation). For several CPU cores as devices, run with
 ``XLA_FLAGS=--xla_force_host_platform_device_count=2``. ``--grid NC NE`` spaces NC clearances
-and NE restitutions evenly over the same ranges; ``--solve one_loop`` runs each member as one
-while loop (`jaxbearing.simulate_one_loop`: the fast path on a GPU, metrics within the solver's
-accuracy of the default solve's).
+and NE restitutions evenly over the same ranges. Without ``--samples`` each member runs as one
+while loop (`jaxbearing.simulate_one_loop`, the faster in batches; `jaxbearing.sweep` picks it).
 """
 
 from __future__ import annotations
@@ -49,8 +48,6 @@ def main(argv=None) -> int:
     parser.add_argument("--chunk-size", type=int, default=None, help="points per device per chunk")
     parser.add_argument("--grid", type=int, nargs=2, metavar=("NC", "NE"), default=None,
                         help="NC clearances over 5-80 µm x NE restitutions over 0.5-1.0, evenly spaced")
-    parser.add_argument("--solve", choices=("segments", "one_loop"), default="segments",
-                        help="a member's solve (jaxbearing.sweep's solve=)")
     args = parser.parse_args(argv)
 
     import jax
@@ -83,7 +80,6 @@ def main(argv=None) -> int:
         ts=ts,
         out=out,
         chunk_size=args.chunk_size,
-        solve=args.solve,
     )
     wall = time.perf_counter() - tic
     _report_speed(ds, wall)

@@ -1,4 +1,4 @@
-"""`simulate_one_loop` and ``sweep(solve="one_loop")`` against `simulate`.
+"""`simulate_one_loop`, and sweeps whose members run as one loop, against `simulate`.
 
 Both integrate the same equations with diffrax's Tsit5 tableau, the same PID controller and the
 same event rules, but in other step sequences (`simulate` restarts a segment at each event and
@@ -104,9 +104,10 @@ def test_bearing_lives_agree_with_simulate(paper_case):
 def test_sweep_members_agree_with_simulate_one_by_one(paper_case):
     model, _, _ = paper_case
     clearances = [20e-6, 80e-6]
-    ds = jb.sweep(model, {"bearing.clearance": clearances}, t1=T1, solve="one_loop",
+    ds = jb.sweep(model, {"bearing.clearance": clearances}, t1=T1,
                   options=jb.SolveOptions(window_edges=EDGES), progress=False)
     assert not bool(ds.failed.any())
+    assert ds.attrs["solve"] == "one_loop"  # no output samples asked for: the one loop ran
     for c in clearances:
         point = jb.paths.replace(model, {"bearing.clearance": c})
         reference = _metrics(jb.simulate(point, T1, [0.0, T1], options=jb.SolveOptions(window_edges=EDGES)))
@@ -205,16 +206,24 @@ def test_a_model_without_events_agrees_with_simulate():
 
 
 @pytest.mark.parametrize(
-    "kwargs, error, match",
+    "kwargs, solve",
     [
-        (dict(adjoint=None), TypeError, "forwards only simulate_one_loop's"),
-        (dict(ts=[0.0, T1]), ValueError, "keeps no output times"),
-        (dict(metrics={"ball": lambda sol: jnp.max(sol.ball_loads)}), ValueError, "keeps no output samples"),
-        (dict(solve="loop"), ValueError, "solve must be one of"),
+        ({}, "one_loop"),
+        (dict(ts=[0.0, T1]), "segments"),
+        (dict(metrics={"ball": lambda sol: jnp.max(sol.ball_loads)}), "segments"),
     ],
 )
-def test_sweep_refuses_what_one_loop_cannot_do(kwargs, error, match):
-    model = jb.cases.xu2014()
-    kwargs = dict(dict(solve="one_loop"), **kwargs)
-    with pytest.raises(error, match=match):
-        jb.sweep(model, {"bearing.clearance": [20e-6]}, t1=T1, progress=False, **kwargs)
+def test_sweep_runs_the_one_loop_unless_samples_are_read(kwargs, solve):
+    """A sweep runs its members as one loop (the faster in batches) unless output times are
+    asked for or a metric reads the samples, which `simulate` writes."""
+    from jaxbearing._sweep import arguments
+
+    metrics = kwargs.get("metrics", jb.metrics.STANDARD)
+    items = arguments.metric_items(metrics, ["bearing.clearance"])
+    assert arguments.driver_of(items, kwargs.get("ts")) == solve
+
+
+@pytest.mark.parametrize("key", ["adjoint", "throw", "progress_label"])
+def test_sweep_refuses_what_it_sets_or_does_not_know(key):
+    with pytest.raises(TypeError, match="sweep"):
+        jb.sweep(jb.cases.xu2014(), {"bearing.clearance": [20e-6]}, t1=T1, progress=False, **{key: None})

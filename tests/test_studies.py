@@ -36,11 +36,12 @@ def test_study_runs_quick(script, tmp_path):
 
 
 def test_dense_map_with_the_one_loop_solve(tmp_path):
-    """``--grid`` spaces the values evenly, ``--solve`` reaches the sweep; a grid too large to
-    print reports each metric's extremes, which are those of the written results."""
+    """``--grid`` spaces the values evenly and the members run as one loop (no output samples
+    are read); a grid too large to print reports each metric's extremes, which are those of the
+    written results."""
     import xarray as xr
 
-    stdout = run(SWEEP, "--grid", "17", "2", "--t1", "0.045", "--solve", "one_loop", "--out", str(tmp_path))
+    stdout = run(SWEEP, "--grid", "17", "2", "--t1", "0.045", "--out", str(tmp_path))
     ds = xr.open_dataset(tmp_path / "results.nc")
     assert dict(ds.sizes) == {"bearing.clearance": 17, "impact.restitution": 2}
     assert not ds.failed.any()

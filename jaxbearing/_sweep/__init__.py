@@ -33,9 +33,11 @@ How it runs
 - Under vmap every member takes its own steps and locates its own events in each iteration of
   the solve's loop; a chunk runs until its slowest member finishes: points that need many
   steps slow down their chunk, not the others.
-- ``solve="one_loop"`` runs each member with `simulate_one_loop` instead: one while loop a
-  member, no segments and no output times, for large batches on accelerators (docs/platforms.md); its metrics agree with `simulate`'s to the solver's accuracy. It takes only metrics of the solve's records and `simulate_one_loop`'s keywords, and records
-  ``"solve": "one_loop"`` in the manifest.
+- Where nothing reads output samples (no ``ts`` given, only metrics of the solve's records),
+  each member runs as `simulate_one_loop`: one while loop a member, the faster in batches, on
+  CPUs and accelerators alike (docs/platforms.md); else as `simulate`. Both repeat the same
+  integrator core, so the metrics agree to the solver's accuracy. The manifest records
+  ``"solve": "one_loop"`` then, and the dataset's ``solve`` attribute says which ran.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
   need: ``[t0, t1]`` when every metric comes from the solve's per-step records
   (`Solution.segments` and `.fatigue`: `metrics.STANDARD`, `metrics.SMOOTH`, `life.metric`, and
@@ -50,7 +52,7 @@ How it runs
   holds more members in memory. The measured rates and memory per member are in
   docs/performance.md and ``benchmarks/results.json``
   (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 4096 points
-  per device for the segmented solve and 65536 for ``solve="one_loop"`` (the best measured on
+  per device for members run as `simulate` and 65536 for the one loop (the best measured on
   one GPU: docs/performance.md); there a chunk runs in lock-step too, but the device's
   threads are idle until tens of thousands of members share an iteration.
 - Members run with ``simulate(..., throw=False)``: a member that fails (``max_steps``,

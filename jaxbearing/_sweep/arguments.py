@@ -26,7 +26,7 @@ DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads t
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
 RESERVED = ("status", "failed", "point")
-NOT_FORWARDED = ("throw", "progress")  # simulate arguments that sweep sets itself
+NOT_FORWARDED = ("throw", "progress", "adjoint")  # simulate arguments that sweep sets itself
 SOLVES = {"segments": simulate, "one_loop": simulate_one_loop}  # what a member's solve calls
 # jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
 # whatever the output times: recognised as sample-free without the attribute
@@ -52,23 +52,21 @@ class Request(NamedTuple):
     solve: str  # a key of `SOLVES`
 
 
-def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segments") -> Request:
+def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     """Check every argument of `jaxbearing.sweep` (ValueError/TypeError naming the fix)."""
     if not isinstance(model, Mechanism):
         raise TypeError(f"sweep needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    _check_solve(solve)
     names, axes = parameters(model, params)
     points, shape = grid_points(names, axes, grid)
     items = metric_items(metrics, names)
-    sim_kwargs = simulate_kwargs_of(simulate_kwargs, solve)
+    solve = driver_of(items, ts)
+    sim_kwargs = simulate_kwargs_of(simulate_kwargs)
     options = _checked_options(sim_kwargs.get("options"))
     t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
     window_stops(options.window_edges)
     if options.fatigue is None:
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
-    if solve == "one_loop":
-        _check_one_loop(items, ts)
-    elif options.max_segments is None:  # resolved here, so that the manifest records it
+    if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
         segments = default_max_segments(model, t0, t1, options.segment_steps or SEGMENT_STEPS)
         options = dataclasses.replace(options, max_segments=segments)
     sim_kwargs["options"] = options
@@ -83,18 +81,13 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve="segmen
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
 
 
-def _check_one_loop(items, ts):
-    """`simulate_one_loop` keeps no output times: ``ts`` must be None and every metric must come
-    from the solve's records (`needs_samples`)."""
-    if ts is not None:
-        raise ValueError('solve="one_loop" keeps no output times: leave ts unset.')
-    sampled = [name for name, fn in items if needs_samples(fn)]
-    if sampled:
-        raise ValueError(
-            f'solve="one_loop" keeps no output samples, which the metrics {sampled} read: use '
-            "metrics of the solve's records (metrics.STANDARD, metrics.SMOOTH, life.metric, or "
-            'functions marked sample_free = True), or solve="segments".'
-        )
+def driver_of(items, ts) -> str:
+    """How the members run (`SOLVES`): "one_loop" (`simulate_one_loop`, the faster in batches)
+    where no output times are asked for and no metric reads the samples, else "segments"
+    (`simulate`). Both repeat the same integrator core."""
+    if ts is None and not any(needs_samples(fn) for _, fn in items):
+        return "one_loop"
+    return "segments"
 
 
 def parameters(model, params):
@@ -196,10 +189,11 @@ def output_times(items, t0, t1, ts) -> np.ndarray:
     return np.asarray(_checked_ts(ts, t0, t1))
 
 
-def simulate_kwargs_of(kwargs, solve="segments"):
-    """The keyword arguments forwarded to the solve (`SOLVES`), sorted; TypeError for others."""
-    name = SOLVES[solve].__name__
-    accepted = set(_simulate_parameters(solve)) - {"model", "t1", "ts"}
+def simulate_kwargs_of(kwargs):
+    """The keyword arguments forwarded to the solve, sorted: `simulate`'s that both drivers
+    take; TypeError for others."""
+    name = simulate.__name__
+    accepted = set(_simulate_parameters("one_loop")) - {"model", "t1"}
     for key in kwargs:
         if key in NOT_FORWARDED:
             raise TypeError(f"sweep sets {name}'s {key!r} itself; do not pass it.")
@@ -261,17 +255,12 @@ def _violation_flags(model, names, points, t0):
     return jax.vmap(one)(points)
 
 
-def _check_solve(solve):
-    if solve not in SOLVES:
-        raise ValueError(f"solve must be one of {sorted(SOLVES)}; got {solve!r}.")
-
-
 def default_chunk_size(platform: str | None = None, solve: str = "segments") -> int:
     """Points per device per chunk when ``chunk_size`` is not given: 32 on CPU devices; on
-    accelerators 4096 for ``solve="segments"`` and 65536 for ``"one_loop"``, whose members cost
+    accelerators 4096 for members run as `simulate` and 65536 as `simulate_one_loop` (``solve``
+    "one_loop", `driver_of`), whose members cost
     little more an iteration in larger batches until the device fills (measured:
     docs/performance.md)."""
-    _check_solve(solve)
     platform = jax.devices()[0].platform if platform is None else platform
     return DEFAULT_CHUNK_SIZE_CPU if platform == "cpu" else DEFAULT_CHUNK_SIZE_ACCELERATOR[solve]
 

@@ -91,6 +91,7 @@ def _attributes(request, state, record):
         "max_steps": int(settings["max_steps"]),
         "max_segments": int(settings["max_segments"]),
         "solver": str(settings["solver"]),
+        "solve": request.solve,  # how the members ran: "one_loop" or "segments" (`driver_of`)
         "simulate_kwargs": json.dumps(settings),
         "model_fingerprint": record["model_fingerprint"],
         "model_parameters": json.dumps(record["model_parameters"]),

@@ -30,7 +30,6 @@ def sweep(
     out: str | os.PathLike | None = None,
     chunk_size: int | None = None,
     progress: bool = True,
-    solve: str = "segments",
     **simulate_kwargs,
 ):
     """Simulate ``model`` at many parameter values and return labelled metrics (how it runs, the
@@ -55,17 +54,14 @@ def sweep(
             per-step records), else ``linspace(t0, t1, 2001)``.
         out: folder to write to and resume from (see the package doc), or None.
         chunk_size: points per device per chunk (default `default_chunk_size`: 32 on CPU; on
-            accelerators 4096, or 65536 with ``solve="one_loop"``; or the layout already in
-            ``out``).
+            accelerators 4096, or 65536 where members run as one loop; or the layout already
+            in ``out``).
         progress: show a progress bar over chunks (tqdm, else plain lines).
-        solve: ``"segments"``: each member is a `simulate` run; ``"one_loop"``: a
-            `simulate_one_loop` run (one while loop a member, no output times: for large
-            batches on accelerators; its metrics agree with `simulate`'s to the solver's
-            accuracy). It takes ``solver``, ``stepsize_controller``,
-            ``max_steps`` and ``options``, and only metrics of the solve's records.
-        **simulate_kwargs: passed to `simulate` (``solver``, ``stepsize_controller``,
-            ``adjoint``, ``max_steps``, ``options``); ``throw`` and ``progress`` are set by the
-            sweep. Without ``options.fatigue`` set, members record the life's integrals only
+        **simulate_kwargs: the solve's settings, as `simulate` takes them (``solver``,
+            ``stepsize_controller``, ``max_steps``, ``options``); ``throw``, ``progress`` and
+            ``adjoint`` are the sweep's. Each member runs the same integrator core: as
+            `simulate_one_loop` (one while loop, the faster in batches) where nothing reads
+            output samples, else as `simulate`; the metrics agree to the solver's accuracy. Without ``options.fatigue`` set, members record the life's integrals only
             where a metric reads them.
 
     Returns:
@@ -83,7 +79,7 @@ def sweep(
     _checks.require_x64()
     started = time.perf_counter()
     model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
-    request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs, solve)
+    request = arguments.request(model, params, metrics, grid, t1, ts, simulate_kwargs)
     out = None if out is None else Path(out)
     n_devices = jax.device_count()
     n_points = request.points.shape[0]
