@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import optimistix as optx
@@ -205,6 +206,7 @@ class State(NamedTuple):
     approach: jax.Array  # (n_contacts,) approach speed of each contact in force [m/s]
     in_contact: jax.Array  # (n_contacts,) bool
     engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
+    value: jax.Array  # the largest event value at (t, y) (`_event_value`): negative
     locating: jax.Array  # the held step crossed an event: its time is being located
     step_end: jax.Array  # [s] the held step's end
     step_dense: object  # its interpolant's data (the solver's dense info)
@@ -271,6 +273,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         approach=approach,
         in_contact=in_contact,
         engaged=engaged,
+        value=_event_value(model, t0, y0, in_contact, engaged),
         locating=jnp.asarray(False),
         step_end=t0,
         step_dense=dense,
@@ -310,6 +313,7 @@ class _Outcome(NamedTuple):
     h: jax.Array
     control: object
     switches: tuple  # (approach, in_contact, engaged)
+    value: jax.Array  # the event value at (t, y)
     locating: jax.Array
     step: tuple  # (step_end, step_dense, step_h) of the held step
     root: ITPState
@@ -353,9 +357,22 @@ def _locate(s: Setup, x: State) -> _Outcome:
     root = jax.lax.stop_gradient(itp_step(x.root, along(x.root.next)))  # tangents: `_event_time`
     located = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
     lost = ~located & (x.root_steps + 1 >= ROOT_STEPS)
-    t_event = _event_time(along, root.upper)
-    y_event = interpolation.evaluate(t_event)
-    approach, in_contact, engaged, onset, separated, overlap = _switch(model, x, t_event, y_event, located)
+
+    def event():  # the event, and the event value after its switch
+        t_event = _event_time(along, root.upper)
+        y_event = interpolation.evaluate(t_event)
+        approach, in_contact, engaged, onset, separated, overlap = _switch(model, x, t_event, y_event, located)
+        value = _event_value(model, t_event, y_event, in_contact, engaged)
+        return t_event, y_event, (approach, in_contact, engaged), onset, separated, overlap, value
+
+    def no_event():
+        none = (root.upper, jnp.zeros_like(root.upper), jnp.asarray(-1), jnp.asarray(False))
+        return root.upper, x.y, _args(x), none, jnp.zeros_like(x.in_contact), jnp.asarray(False), x.value
+
+    # a batch (unvmapped predicate) evaluates the event only in iterations where a member has one
+    t_event, y_event, switches, onset, separated, overlap, value = jax.lax.cond(
+        eqxi.unvmap_any(located), event, no_event
+    )
     keep = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(located, u, v), a, b)  # noqa: E731
     failure = RESULTS.where(lost, _NOT_LOCATED, RESULTS.successful)
     failure = RESULTS.where(located & overlap, RESULTS.contact_overlap, failure)
@@ -367,7 +384,8 @@ def _locate(s: Setup, x: State) -> _Outcome:
         made_jump=x.made_jump | located,
         h=jnp.where(located, x.step_h, x.h),
         control=x.control,
-        switches=keep((approach, in_contact, engaged), _args(x)),
+        switches=keep(switches, _args(x)),
+        value=jnp.where(located, value, x.value),
         locating=~located,
         step=(x.step_end, x.step_dense, x.step_h),
         root=root,
@@ -407,14 +425,8 @@ def _attempt(s: Setup, x: State) -> _Outcome:
     value_b = _event_value(model, t_b, y1, x.in_contact, x.engaged)
     crossed = keep & (value_b > 0)
     accept = keep & ~crossed
-    started = jax.lax.cond(
-        crossed,
-        lambda: jax.lax.stop_gradient(itp_start(
-            x.t, t_b, _event_value(model, x.t, x.y, x.in_contact, x.engaged), value_b,
-            EVENT_TIME_TOLERANCE,
-        )),
-        lambda: x.root,
-    )
+    started = jax.lax.stop_gradient(itp_start(x.t, t_b, x.value, value_b, EVENT_TIME_TOLERANCE))
+    started = jax.tree_util.tree_map(lambda a, b: jnp.where(crossed, a, b), started, x.root)
     too_small = ~keep & (h_next < SMALLEST_STEP)
     # a step shrunk to nothing whose event value at its end is above `JUMP` holds a jump: a
     # contact switched on (``active_from``) while its surfaces overlap, whose force jumps too,
@@ -431,6 +443,7 @@ def _attempt(s: Setup, x: State) -> _Outcome:
         h=h_next,
         control=control,
         switches=_args(x),
+        value=jnp.where(accept, value_b, x.value),
         locating=crossed,
         step=held((t_b, dense, h_next), (x.step_end, x.step_dense, x.step_h)),
         root=started,
@@ -493,6 +506,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         approach=o.switches[0],
         in_contact=o.switches[1],
         engaged=o.switches[2],
+        value=o.value,
         locating=o.locating,
         step_end=o.step[0],
         step_dense=o.step[1],
