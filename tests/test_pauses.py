@@ -122,3 +122,14 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
 def test_segment_steps_must_be_positive():
     with pytest.raises(ValueError, match="segment_steps must be None or an integer of at least 1"):
         jb.simulate(_model(), T1, TS, options=jb.SolveOptions(segment_steps=0))
+
+
+def test_more_onsets_than_recorded_fail_loudly():
+    """`Solution.contacts` records ``max_onsets`` contact onsets; a run with more fails (a wrong
+    answer, contacts silently dropped, is worse than an error), naming the option to raise."""
+    model, ts = _model(), jnp.array([0.0, 0.095])  # 6 onsets by 0.095 s (docs/xu2014.md)
+    sol = jb.simulate(model, 0.095, ts, options=jb.SolveOptions(max_onsets=2), throw=False)
+    assert sol.result == jb.RESULTS.max_onsets_reached
+    assert int(sol.contacts.count) == 2 and float(sol.t_final) < 0.095
+    with pytest.raises(jb.SimulationError, match="max_onsets"):
+        jb.simulate(model, 0.095, ts, options=jb.SolveOptions(max_onsets=2))
