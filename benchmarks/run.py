@@ -26,9 +26,10 @@ impact (0-0.2 s, 2001 output times):
   monitoring events (`jax.monitoring`: tracing, lowering to MLIR, backend compile or cache
   retrieval) and the cache's hits and writes;
 - the cost of 200 001 output times against 2001;
-- compile time of a forward run and of a 3-parameter forward-mode gradient, and the cost of that
-  gradient (clearance, restitution, ball stiffness; smooth peak ball load) relative to one
-  forward run of the same model and metric, for the paper and the smooth ball force;
+- compile time of a forward run and of a 3-parameter forward-mode gradient (`jb.sensitivity`: one
+  tangent at a time), and the cost of that gradient (clearance, restitution, ball stiffness;
+  smooth peak ball load) relative to one forward run of the same model and metric, for the paper
+  and the smooth ball force; and the same gradient by `jax.jacfwd` (3 tangents at once);
 - the SciPy baseline (`benchmarks/scipy_baseline.py`: the same equations in NumPy, `solve_ivp`
   with exact contact events) for LSODA, BDF, Radau and RK45; the speed target compares RK45 with
   the default row;
@@ -334,7 +335,8 @@ def _single(args):
 
 
 def _gradient(args):
-    """Compile and run times of a forward run and of its 3-parameter forward-mode gradient."""
+    """Compile and run times of a forward run and of its 3-parameter forward-mode gradient:
+    `jaxbearing.sensitivity` (one tangent at a time), and `jax.jacfwd` (a batch of 3 tangents)."""
     import diffrax
     import equinox as eqx
 
@@ -349,11 +351,19 @@ def _gradient(args):
         return jb.metrics.smooth_peak_ball_load(sol), sol
 
     forward = eqx.filter_jit(lambda x: metric(x, diffrax.RecursiveCheckpointAdjoint()))
-    gradient = eqx.filter_jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
+    jacfwd = eqx.filter_jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
+
+    def gradient(x):
+        m = jb.paths.replace(model, dict(zip(names, x)))
+        _, grads = jb.sensitivity(m, jb.metrics.smooth_peak_ball_load, names, args.t1, ts)
+        return jax.numpy.stack([grads[n] for n in names])
+
     (value, sol), first_f = _timed(lambda: forward(x0))
     wall_f = _min_wall(lambda: forward(x0), args.repeats)
     grad, first_g = _timed(lambda: gradient(x0))
     wall_g = _min_wall(lambda: gradient(x0), args.repeats)
+    batched, first_j = _timed(lambda: jacfwd(x0))
+    wall_j = _min_wall(lambda: jacfwd(x0), args.repeats)
     row = dict(
         device_kind=_device_kind(),
         forward_s=wall_f,
@@ -361,6 +371,10 @@ def _gradient(args):
         ratio=wall_g / wall_f,
         compile_forward_s=first_f - wall_f,
         compile_gradient_s=first_g - wall_g,
+        jacfwd_s=wall_j,
+        jacfwd_ratio=wall_j / wall_f,
+        compile_jacfwd_s=first_j - wall_j,
+        jacfwd_gradient={n: float(g) for n, g in zip(names, batched)},
         value_N=float(value),
         gradient={n: float(g) for n, g in zip(names, grad)},
         finite=bool(np.all(np.isfinite(np.asarray(grad)))),
@@ -626,7 +640,9 @@ def _gradient_row(settings, results):
         print(
             f"  {force:6s} ball force: {row['gradient_s']:.3f} s = {row['ratio']:.2f} x forward "
             f"({row['forward_s']:.3f} s); compile forward {row['compile_forward_s']:.1f} s, gradient "
-            f"{row['compile_gradient_s']:.1f} s; {row['peak_memory_MiB']:.0f} MiB  {_ok(row)}",
+            f"{row['compile_gradient_s']:.1f} s; {row['peak_memory_MiB']:.0f} MiB  {_ok(row)}\n"
+            f"  {'':6s} jax.jacfwd (3 tangents at once): {row['jacfwd_s']:.3f} s = {row['jacfwd_ratio']:.2f} x "
+            f"forward; compile {row['compile_jacfwd_s']:.1f} s",
             flush=True,
         )
 

@@ -67,7 +67,8 @@ def sensitivity(
         metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`).
         names: parameter paths, e.g. ``["bearing.clearance", "impact.restitution"]``.
         t1, ts, **simulate_kwargs: passed to `simulate`.
-        mode: ``"forward"`` (jacfwd, ForwardMode adjoint) or ``"reverse"`` (grad).
+        mode: ``"forward"`` (one `jax.jvp` per parameter, `diffrax.ForwardMode`) or
+            ``"reverse"`` (`jax.grad`).
 
     Returns:
         ``(value, {name: derivative})`` in the metric's units per parameter unit.
@@ -93,12 +94,11 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     if mode == "reverse":
         return jax.value_and_grad(f)(x)
 
-    def with_value(x_):
-        v = f(x_)
-        return v, v
-
-    grad, value = jax.jacfwd(with_value, has_aux=True)(x)
-    return value, grad
+    # one tangent at a time (`lax.map` over the unit vectors: one compiled jvp), not a batch of
+    # them as `jax.jacfwd` takes: batched tangents cost more per tangent on a CPU than a
+    # tangent alone, and compile longer (docs/performance.md)
+    values, grad = jax.lax.map(lambda v: jax.jvp(f, (x,), (v,)), jnp.eye(x.shape[0], dtype=x.dtype))
+    return values[0], grad
 
 
 class TuneResult(eqx.Module):
