@@ -366,7 +366,7 @@ def _locate(s: Setup, x: State) -> _Outcome:
         return t_event, y_event, (approach, in_contact, engaged), onset, separated, overlap, value
 
     def no_event():
-        none = (root.upper, jnp.zeros_like(root.upper), jnp.asarray(-1), jnp.asarray(False))
+        none = _no_onset(root.upper)
         return root.upper, x.y, _args(x), none, jnp.zeros_like(x.in_contact), jnp.asarray(False), x.value
 
     # a batch (unvmapped predicate) evaluates the event only in iterations where a member has one
@@ -481,7 +481,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         lambda: (no_peaks(model), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
     )
     rows = jax.tree_util.tree_map(lambda a, b: jnp.where(row.recorded, a, b), _add(rows, stats), rows)
-    into = lambda a, r: jnp.where(_rows_mask(here, a), jnp.broadcast_to(r, a.shape), a)  # noqa: E731
+    into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731
     onset = o.located & o.onset[3]
     separated = o.separated
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])
@@ -559,15 +559,15 @@ def _spans(x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
     return (end, peak, peak_time), current
 
 
-def _rows_mask(rows, x):
-    """``rows`` (R,) shaped to broadcast against ``x`` (R, ...)."""
-    return rows.reshape(rows.shape + (1,) * (x.ndim - 1))
+def _where_rows(rows, x, y):
+    """x in the ``rows`` (R,) where true, else y (x: (R, ...))."""
+    return jnp.where(rows.reshape(rows.shape + (1,) * (x.ndim - 1)), x, y)
 
 
 def _row(x, here):
     """The row of ``x`` (rows, ...) where the one-hot ``here`` is true: a sum of selects, which
     a batch evaluates elementwise (a vmapped index would be a gather)."""
-    return jnp.sum(jnp.where(_rows_mask(here, x), x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
+    return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
 
 
 def contacts(x: State):

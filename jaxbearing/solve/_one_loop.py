@@ -26,19 +26,13 @@ from ._core import advance, initial_state
 from ._options import SolveOptions
 from ._simulate import (
     INITIAL_STEP,
-    _check_max_steps,
-    _checked_controller,
-    _checked_options,
-    _checked_span,
     _raise_on_failure,
     core_setup,
-    default_max_onsets,
-    default_solver,
     solution,
+    solve_arguments,
     start_rules,
     window_stops,
 )
-from ._stops import with_root_tolerances
 
 
 def simulate_one_loop(
@@ -66,22 +60,13 @@ def simulate_one_loop(
     Forward-mode derivatives (`jax.jvp`, `jax.jacfwd`) agree with `simulate`'s; reverse mode
     raises (use `simulate`).
     """
-    _checks.require_x64()
-    if not isinstance(model, Mechanism):
-        raise TypeError(f"simulate_one_loop needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    model = _checks.float_leaves(model)
-    options = _checked_options(options)
-    span = (options.t0, t1)
-    t0, t1 = _checked_span(options.t0, t1)
-    _check_max_steps(max_steps)
-    onsets = default_max_onsets(*span) if options.max_onsets is None else int(options.max_onsets)
-    solver = default_solver() if solver is None else solver
-    controller = _checked_controller(stepsize_controller)
-    solver = with_root_tolerances(solver, controller)
-    stops = window_stops(options.window_edges)
-    fatigue = options.fatigue is not False
-    sol = _one_loop(model, t0, t1, solver, controller, jnp.asarray(max_steps), stops, fatigue, onsets)
-    return _raise_on_failure(sol, t1, lambda: start_rules(model, t0, t1)) if throw else sol
+    a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
+    stops = window_stops(a.options.window_edges)
+    fatigue = a.options.fatigue is not False
+    sol = _one_loop(
+        a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
+    )
+    return _raise_on_failure(sol, a.t1, lambda: start_rules(a.model, a.t0, a.t1)) if throw else sol
 
 
 @eqx.filter_jit

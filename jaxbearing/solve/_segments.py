@@ -19,7 +19,7 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ._core import Row, Setup, State, _interpolation, advance
+from ._core import Row, Setup, State, _interpolation, _where_rows, advance
 from ._progress import report
 
 
@@ -225,7 +225,3 @@ def full_rows(c: Carry) -> jax.Array:
     block = c.pending[0].shape[0]
     return c.written // block * block
 
-
-def _where_rows(rows, x, y):
-    """x in the ``rows`` (block,) where true, else y."""
-    return jnp.where(rows.reshape(rows.shape + (1,) * (x.ndim - 1)), x, y)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
@@ -39,12 +40,11 @@ from ..solution import (
     Solution,
 )
 from ._progress import label_key
-from ._core import ROOT_STEPS, Setup, contacts, initial_state
+from ._core import ROOT_STEPS, Setup, _where_rows, contacts, initial_state
 from ._options import SolveOptions
 from ._recording import _accelerations, _forces
 from ._segments import (
     Driver,
-    _where_rows,
     full_rows,
     initial_carry,
     loop_kind,
@@ -130,23 +130,14 @@ def simulate(
         options: `SolveOptions` (start time, window edges, fatigue records, segmentation);
             None: the defaults.
     """
-    _checks.require_x64()
-    if not isinstance(model, Mechanism):
-        raise TypeError(f"simulate needs a jaxbearing Mechanism, got {type(model).__name__}.")
-    model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
-    options = _checked_options(options)
-    span = (options.t0, t1)  # as given: Python numbers stay concrete under the caller's jit
-    t0, t1 = _checked_span(options.t0, t1)
+    a = solve_arguments("simulate", model, t1, solver, stepsize_controller, max_steps, options)
+    model, options, t0, t1, solver, stepsize_controller = a.model, a.options, a.t0, a.t1, a.solver, a.controller
     ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     n_out = ts.shape[0]
     ts = _bucketed(ts)
-    _check_max_steps(max_steps)
-    sizes = _segmentation(model, options, span, ts)
+    sizes = _segmentation(model, options, a.span, ts) + (a.max_onsets,)
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
-    solver = default_solver() if solver is None else solver
-    stepsize_controller = _checked_controller(stepsize_controller)
-    solver = with_root_tolerances(solver, stepsize_controller)
     sol = _with_adjoint(
         adjoint,
         _simulate,
@@ -167,25 +158,56 @@ def simulate(
     return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
 
 
-def _segmentation(model, options: SolveOptions, span, ts) -> tuple[int, int, int, int]:
-    """(max_segments, segment_steps, output_block, max_onsets) of ``options``, defaults filled
-    in; a `ValueError` for a value below 1."""
-    sizes = {
-        "max_segments": options.max_segments,
-        "segment_steps": options.segment_steps,
-        "output_block": options.output_block,
-        "max_onsets": options.max_onsets,
-    }
-    for name, value in sizes.items():
-        if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1):
-            raise ValueError(f"{name} must be None or an integer of at least 1; got {value!r}.")
+class SolveArguments(NamedTuple):
+    """The arguments both drivers (`simulate`, `simulate_one_loop`) take, checked."""
+
+    model: Mechanism  # its numeric leaves float64 arrays
+    options: SolveOptions
+    span: tuple  # (t0, t1) as given: Python numbers stay concrete under the caller's jit
+    t0: jax.Array  # [s]
+    t1: jax.Array  # [s]
+    solver: diffrax.AbstractSolver
+    controller: diffrax.AbstractStepSizeController
+    max_onsets: int
+
+
+def solve_arguments(caller: str, model, t1, solver, controller, max_steps, options) -> SolveArguments:
+    """The arguments of a solve checked (a `TypeError` or `ValueError` naming the fix) and their
+    defaults filled in."""
+    _checks.require_x64()
+    if not isinstance(model, Mechanism):
+        raise TypeError(f"{caller} needs a jaxbearing Mechanism, got {type(model).__name__}.")
+    model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
+    options = _checked_options(options)
+    span = (options.t0, t1)
+    t0, t1 = _checked_span(options.t0, t1)
+    _check_max_steps(max_steps)
+    _check_size("max_onsets", options.max_onsets)
+    max_onsets = default_max_onsets(*span) if options.max_onsets is None else int(options.max_onsets)
+    solver = default_solver() if solver is None else solver
+    controller = _checked_controller(controller)
+    solver = with_root_tolerances(solver, controller)
+    return SolveArguments(model, options, span, t0, t1, solver, controller, max_onsets)
+
+
+def _check_size(name: str, value) -> None:
+    """A `ValueError` unless ``value`` (the `SolveOptions` field ``name``) is None or an integer
+    of at least 1."""
+    if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1):
+        raise ValueError(f"{name} must be None or an integer of at least 1; got {value!r}.")
+
+
+def _segmentation(model, options: SolveOptions, span, ts) -> tuple[int, int, int]:
+    """(max_segments, segment_steps, output_block) of ``options``, defaults filled in; a
+    `ValueError` for a value below 1."""
+    for name in ("max_segments", "segment_steps", "output_block"):
+        _check_size(name, getattr(options, name))
     segment_steps = SEGMENT_STEPS if options.segment_steps is None else int(options.segment_steps)
     max_segments = options.max_segments
     if max_segments is None:
         max_segments = default_max_segments(model, *span, segment_steps)
     block = default_output_block(ts) if options.output_block is None else options.output_block
-    max_onsets = default_max_onsets(*span) if options.max_onsets is None else options.max_onsets
-    return int(max_segments), segment_steps, min(int(block), ts.shape[0]), int(max_onsets)
+    return int(max_segments), segment_steps, min(int(block), ts.shape[0])
 
 
 def _bucketed(ts):
