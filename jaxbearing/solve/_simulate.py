@@ -115,12 +115,12 @@ def simulate(
         stepsize_controller: a diffrax step-size controller; default `default_controller()`
             (rtol 1e-8, atol 1e-10). Its rtol and atol are values of the compiled solve, like
             ``max_steps``: other values compile nothing.
-        adjoint: how the solve's loops are differentiated. The default (None) serves `jax.grad`
-            and `jax.jacrev` (reverse mode, as `diffrax.RecursiveCheckpointAdjoint`, storing
-            every step of a segment: docs/gradients.md says why), and `jax.jacfwd` and
-            `jax.jvp` (forward mode, as `diffrax.ForwardMode()`, the cheaper for a few
-            parameters; `jaxbearing.sensitivity`). Around your own `jax.jit`
-            (``jax.jacfwd(jax.jit(f))``) pass ``adjoint=diffrax.ForwardMode()``.
+        adjoint: how the solve's loops are differentiated, as in diffrax. The default (None)
+            is reverse mode, for `jax.grad` and `jax.jacrev` (as
+            `diffrax.RecursiveCheckpointAdjoint`, storing every step of a segment:
+            docs/gradients.md says why). For `jax.jacfwd` and `jax.jvp` pass
+            ``diffrax.ForwardMode()`` (the cheaper for a few parameters; `jaxbearing.sensitivity`
+            does).
         max_steps: steps (accepted and rejected) the whole run may take, an integer >= 1.
         throw: raise on failure (`SimulationError`; a `ValueError` naming the rule for an invalid
             parameter value); with False, inspect ``sol.result`` (`RESULTS`) and ``sol.t_final``.
@@ -258,28 +258,22 @@ def default_max_onsets(t0, t1) -> int:
     return 1 << math.ceil(math.log2(32 + ONSET_RATE * _span(t0, t1)))
 
 
-_NO_JVP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
-
-
 def _with_adjoint(adjoint, solve, *args):
-    """``solve(*args, kind)`` with the loop kind of ``adjoint`` (`loop_kind`); ``adjoint`` None:
-    reverse mode ("checkpointed"), and, when forward-mode autodiff (`jax.jacfwd`, `jax.jvp`)
-    meets it (reverse-mode loops are `jax.custom_vjp`s, which refuse jvp while tracing),
-    forward mode ("lax"). An explicit adjoint that refuses forward mode gets a `TypeError`
-    naming the one to pass."""
+    """``solve(*args, kind)`` with the loop kind of ``adjoint`` (`loop_kind`; None: reverse mode,
+    "checkpointed", as diffrax's default). Reverse-mode loops are `jax.custom_vjp`s, which JAX
+    refuses to differentiate in forward mode: a `TypeError` raised while tracing under such a
+    loop carries a note naming the adjoint to pass."""
     kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
     try:
         return solve(*args, kind)
     except TypeError as err:
-        if _NO_JVP not in str(err):
-            raise
-        if adjoint is None:
-            return solve(*args, "lax")
-        raise TypeError(
-            f"simulate is differentiated in forward mode (jax.jacfwd, jax.jvp), which "
-            f"adjoint={type(adjoint).__name__}() does not support (it is reverse mode only): "
-            "pass adjoint=diffrax.ForwardMode(), or leave adjoint unset."
-        ) from err
+        if kind == "checkpointed":
+            err.add_note(
+                "simulate differentiates in reverse mode (jax.grad, jax.jacrev) unless told: for "
+                "forward mode (jax.jacfwd, jax.jvp) pass adjoint=diffrax.ForwardMode(), or use "
+                "jaxbearing.sensitivity."
+            )
+        raise
 
 
 def _checked_options(options) -> SolveOptions:
