@@ -44,7 +44,9 @@ The targets (`_targets`, each with its figure and whether it is met): the defaul
 process's first call served from the persistent cache (the solve written by the first process
 and read by the second, and the first call under half the cold one); Kvaerno5 within 2.5 s; the
 gradient within 5x a forward run; at least 25 sweep simulations/s on 2 CPU devices; the loop
-flag worth at least `FLAG_GAIN`; on a GPU, at least 2000 sweep simulations/s.
+flag worth at least `FLAG_GAIN`; on a GPU, at least 2500 sweep simulations/s; jaxbearing/solve/
+within 1600 lines and `simulate` within 10 parameters (counted). A target not met carries what
+stands in its way (`IN_THE_WAY`).
 
 The group ``gpu`` (run alone, ``--only gpu``; results in ``results_gpu.json`` with the device's
 name) measures on JAX's default accelerator: one simulation and the 3-parameter gradient, each
@@ -73,6 +75,7 @@ checks that the command works.
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import platform
@@ -793,8 +796,51 @@ def _targets(r) -> dict:
         targets[f"loop flag buys >= {FLAG_GAIN}x (XLA defaults / default)"] = (gain, gain >= FLAG_GAIN)
     gpu_rates = [row["throughput"] for row in r.get("gpu", {}).get("sweep", []) if row["throughput"]]
     if gpu_rates:
-        targets[">= 2000 simulations/s on one GPU"] = (max(gpu_rates), max(gpu_rates) >= 2000.0)
-    return {k: dict(measured=v, met=bool(ok)) for k, (v, ok) in targets.items()}
+        targets[">= 2500 simulations/s on one GPU"] = (max(gpu_rates), max(gpu_rates) >= 2500.0)
+    lines = _solve_lines()
+    targets["jaxbearing/solve/ <= 1600 lines"] = (lines, lines <= 1600)
+    parameters = len(inspect.signature(_jb().simulate).parameters)
+    targets["simulate <= 10 parameters"] = (parameters, parameters <= 10)
+    return {
+        k: dict(measured=v, met=bool(ok), **({} if ok else {"in_the_way": IN_THE_WAY.get(k, "")}))
+        for k, (v, ok) in targets.items()
+    }
+
+
+def _solve_lines() -> int:
+    """Lines of the package's solve (jaxbearing/solve/*.py)."""
+    return sum(len(p.read_text().splitlines()) for p in (HERE.parent / "jaxbearing" / "solve").glob("*.py"))
+
+
+def _jb():
+    import jaxbearing
+
+    return jaxbearing
+
+
+# What stands in the way of a target, where it is not met (from profiles of this run's kind).
+IN_THE_WAY = {
+    "trace + compile <= 5 s, cold (paper's case)": (
+        "XLA:CPU's backend compile of the solve is most of it (first_call: trace_s, lower_s, "
+        "backend_compile_s): the loop body inlines the solver's stages of the Eq. 36 right-hand "
+        "side, the event function, its root finder's step and the records"
+    ),
+    "3-parameter gradient <= 5x forward": (
+        "forward mode costs a solve and its tangent per parameter (one jax.jvp), so three "
+        "parameters cost about three solves and tangents; jax.jacfwd shares the solve but its "
+        "batched tangents cost more per tangent on a CPU (jacfwd_ratio)"
+    ),
+    ">= 25 simulations/s on 2 CPU devices": (
+        "a batch member costs more than its single run (throughput of 1 device against the "
+        "single row): under jax.vmap each loop iteration runs for the whole batch until its "
+        "slowest member ends, and the core's step attempt and root-finder step both run, "
+        "selected per member"
+    ),
+    "jaxbearing/solve/ <= 1600 lines": (
+        "besides the one core and its two drivers, the argument checks and their messages, the "
+        "output evaluation and the per-interval records take about 600 lines"
+    ),
+}
 
 
 def main(argv=None):
