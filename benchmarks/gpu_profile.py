@@ -3,8 +3,8 @@ and optionally sweeps of several batch sizes; count the device kernels and sum t
 
     python benchmarks/gpu_profile.py OUT_DIR [t1] [--sweep 1024,4096] [--stages-written] [--one-loop]
 
-``t1`` [s] defaults to 0.05; with ``--sweep`` it must pass `metrics.T_MIN` (0.04 s), where the
-sweeps' standard metrics start their window.
+``t1`` [s] defaults to 0.05; with ``--sweep`` it must pass the paper case's
+`cases.WINDOW_START` (0.04 s), where the sweeps' standard metrics start their window.
 
 Writes the traces under ``OUT_DIR`` and prints, for each run, the wall time of a call after
 compilation (untraced), then from a traced call: the device kernels (events on the GPU's stream
@@ -136,7 +136,7 @@ if __name__ == "__main__":
     )
     parser.add_argument("--one-loop", action="store_true", help="the single run with simulate_one_loop; sweeps as the sweep picks")
     args = parser.parse_args()
-    if args.sweep and args.t1 <= jb.metrics.T_MIN:  # the sweeps' standard metrics need their window
-        parser.error(f"sweeps need t1 > {jb.metrics.T_MIN} s (metrics.T_MIN, where the metrics' window starts)")
+    if args.sweep and args.t1 <= jb.cases.WINDOW_START:  # the sweeps' standard metrics need their window
+        parser.error(f"sweeps need t1 > {jb.cases.WINDOW_START} s (cases.WINDOW_START, where the metrics' window starts)")
     solver = WrittenTsit5() if args.stages_written else None
     main(args.out, args.t1, [int(s) for s in args.sweep.split(",") if s], solver, args.one_loop)

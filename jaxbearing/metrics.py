@@ -1,12 +1,14 @@
-"""Scalar metrics of a `Solution`, over a time window (default t >= `T_MIN`, which is
-`solution.WINDOW_START`: after the start-up transient in which the rod falls onto the race and
-rings).
+"""Scalar metrics of a `Solution`, over a time window [t_min, t_max] [s]: by default
+(``t_min="model"``, ``t_max=None``) from the model's ``window_start`` (`Mechanism`; the paper's
+case starts it after the start-up transient in which the rod falls onto the race and rings;
+None: the whole span) to the end of the solve; ``t_min=None`` starts it with the solve.
 
 They are computed from the solution itself, not from its output times: `simulate` records, per
 interval between its stops, the peaks and integrals over every accepted solver step and the
 step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
 metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
-stops: ``t_min`` = `T_MIN` always is, and ``SolveOptions.window_edges`` adds others. An edge
+stops: t0, the model's ``window_start`` and t1 always are, and ``SolveOptions.window_edges``
+adds others. An edge
 that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in
 Python, makes the metric NaN.
 
@@ -67,11 +69,8 @@ from .solution import (
     PEAK_CONTACT_FORCE,
     PEAK_DISPLACEMENT,
     POWER,
-    WINDOW_START,
     Solution,
 )
-
-T_MIN = WINDOW_START  # [s] start of the default window, a stop of every solve
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,7 +87,7 @@ class WithModel:
         return self.fn(sol, model)
 
 
-def window(ts, t_min=T_MIN, t_max=None) -> jax.Array:
+def window(ts, t_min=None, t_max=None) -> jax.Array:
     """Weights [s] of the output times over the window [t_min, t_max] (`window_weights`), for
     metrics of sampled series; checked by `check_window` (a window without output times)."""
     lo = -jnp.inf if t_min is None else t_min
@@ -154,8 +153,8 @@ def _empty_window(t_min, t_max, first, last, what):
     t_max = np.inf if t_max is None else float(t_max)
     return (
         f"the window t_min = {t_min:.6g} s to t_max = {t_max:.6g} s must hold {what} "
-        f"[{float(first):.6g}, {float(last):.6g}] s: lower t_min (default {T_MIN} s, after the "
-        "start-up transient) or simulate longer"
+        f"[{float(first):.6g}, {float(last):.6g}] s: lower t_min (a metric of a Solution "
+        "starts by default at the model's window_start) or simulate longer"
     )
 
 
@@ -170,7 +169,15 @@ def _inside(sol: Solution, t_min, t_max):
     """Which intervals of ``sol.segments`` lie in [t_min, t_max], and whether both edges are
     stops (or outside the solved span). ValueError when they are not and that is known in
     Python."""
-    return intervals_inside(sol.segments, t_min, t_max, "stop intervals")
+    return intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+
+
+def window_start(sol: Solution, t_min):
+    """The window's start [s]: ``t_min``, or for ``"model"`` the model's ``window_start`` that
+    ``sol`` carries (None: the start of the solve)."""
+    if isinstance(t_min, str) and t_min == "model":
+        return sol.window_start
+    return t_min
 
 
 def intervals_inside(stats, t_min, t_max, name: str):
@@ -178,8 +185,13 @@ def intervals_inside(stats, t_min, t_max, name: str):
     `FatigueStats`) lie in [t_min, t_max] [s], and whether both edges are interval ends (or
     outside the solved span): a ValueError naming the ``name`` when they are not and that is
     known in Python; traced, the second value is False."""
-    t_max = jnp.inf if t_max is None else t_max
-    t_min, t_max = jnp.asarray(t_min, jnp.float64), jnp.asarray(t_max, jnp.float64)
+    if t_min is None:
+        t_min = -jnp.inf
+    start_is = 'the window\'s start, "model" (the model\'s window_start) or None (from t0)'
+    t_min = _window_edge("t_min", t_min, start_is)
+    if t_max is None:
+        t_max = jnp.inf
+    t_max = _window_edge("t_max", t_max, "the window's end, or None (to the end of the run)")
     if is_concrete(t_min, t_max) and not t_max > t_min:
         raise ValueError(f"t_max must exceed t_min; got the window [{float(t_min)}, {float(t_max)}] s.")
     start = jnp.min(jnp.where(stats.valid, stats.t_start, jnp.inf))
@@ -205,6 +217,19 @@ def intervals_inside(stats, t_min, t_max, name: str):
     )
     _check_not_empty(jnp.any(inside), t_min, t_max, start, end, "part of the solved span")
     return inside, ok
+
+
+def _window_edge(name, value, what) -> jax.Array:
+    """A window edge [s] as a float64 scalar; a ValueError saying what it must be."""
+    edge = None
+    if not isinstance(value, (bool, str, type(None))):
+        try:
+            edge = jnp.asarray(value, jnp.float64)
+        except (TypeError, ValueError):
+            pass
+    if edge is None or edge.ndim != 0:
+        raise ValueError(f"{name} must be a time [s], one number, {what}; got {value!r}.")
+    return edge
 
 
 def _peak(sol: Solution, column, t_min, t_max):
@@ -237,21 +262,21 @@ def _require_bearing(sol: Solution):
         raise ValueError("This solution has no bearing joint.")
 
 
-def peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def peak_ball_load(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """Largest load on any ball [N] in the window, the maximum of each solver step's
     interpolant (`SegmentStats`)."""
     _require_bearing(sol)
     return _peak(sol, PEAK_BALL_LOAD, t_min, t_max)
 
 
-def peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def peak_bearing_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window, the maximum
     of each solver step's interpolant (`SegmentStats`)."""
     _require_bearing(sol)
     return _peak(sol, PEAK_BEARING_FORCE, t_min, t_max)
 
 
-def rms_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def rms_bearing_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """Root-mean-square of |F| over the window (time-weighted) [N]: Gauss–Legendre quadrature of
     each step's interpolant (exact for integrands of degree <= 5 over a step). Smooth."""
     _require_bearing(sol)
@@ -259,13 +284,13 @@ def rms_bearing_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
     return jnp.sqrt(total / duration)
 
 
-def peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def peak_impact_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """Largest normal impact force [N] in the window, the maximum of each solver step's
     interpolant (`SegmentStats`), so independent of the output times."""
     return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
 
 
-def max_target_displacement(sol: Solution, t_min=T_MIN, t_max=None, coordinate=None) -> jax.Array:
+def max_target_displacement(sol: Solution, t_min="model", t_max=None, coordinate=None) -> jax.Array:
     """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, the maximum of
     each solver step's interpolant (`SegmentStats`). Default coordinate: the impact
     target's x (`Solution.target`; in `cases.xu2014` the target, body 3); a model without
@@ -298,9 +323,11 @@ def _peak_column(sol: Solution, metric) -> int:
         if sol.target is None:
             raise ValueError("This solution has no impact target (its model has no contact).")
         return PEAK_DISPLACEMENT + sol.target
+    given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
     raise ValueError(
-        "metric must be one of the exact peaks peak_ball_load, peak_bearing_force, "
-        f"peak_impact_force or max_target_displacement; got {metric!r}."
+        "metric must be the function (not its name) of an exact peak: "
+        "jaxbearing.metrics.peak_ball_load, peak_bearing_force, peak_impact_force or "
+        f"max_target_displacement; got {given}."
     )
 
 
@@ -312,7 +339,7 @@ def _where_peak(sol: Solution, column, t_min, t_max):
     return i, ok & jnp.any(inside)
 
 
-def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
+def peak_time(sol: Solution, metric, t_min="model", t_max=None) -> jax.Array:
     """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
     `peak_impact_force`, or `max_target_displacement` of the target) is attained in the window:
     the earliest recorded point that attains it (`SegmentStats.peak_times`), so independent of
@@ -324,7 +351,7 @@ def peak_time(sol: Solution, metric, t_min=T_MIN, t_max=None) -> jax.Array:
     return jnp.where(has_value, time, jnp.nan)
 
 
-def loads_at_peak(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def loads_at_peak(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """Every ball's load [N] at the time of `peak_ball_load` in the window (its `peak_time`),
     (N_b,), ball 1 first: the load distribution at the worst instant (`SegmentStats.peak_loads`);
     NaN for a window without value (traced). A vector: in a sweep, take one ball's entry."""
@@ -333,14 +360,14 @@ def loads_at_peak(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
     return jnp.where(has_value, sol.segments.peak_loads[i], jnp.nan)
 
 
-def peak_ball(sol: Solution, t_min=T_MIN, t_max=None) -> jax.Array:
+def peak_ball(sol: Solution, t_min="model", t_max=None) -> jax.Array:
     """The ball that carries `peak_ball_load` in the window: its column of
     `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced)."""
     loads = loads_at_peak(sol, t_min, t_max)
     return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 
-def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+def smooth_peak_ball_load(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of all ball loads over the window and the balls [N]: a
     differentiable stand-in for `peak_ball_load` (below it; closer as p grows). Gauss–Legendre
     quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
@@ -349,14 +376,14 @@ def smooth_peak_ball_load(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax
     return _power_mean(sol, INT_BALL_LOAD_POWER, t_min, t_max, p, n_balls)
 
 
-def smooth_peak_bearing_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+def smooth_peak_bearing_force(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak.
     Gauss–Legendre quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
     _require_bearing(sol)
     return _power_mean(sol, INT_BEARING_FORCE_POWER, t_min, t_max, p)
 
 
-def smooth_peak_impact_force(sol: Solution, t_min=T_MIN, t_max=None, p=16.0) -> jax.Array:
+def smooth_peak_impact_force(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
     """Power mean of order p of the impact force over the window [N]. Gauss–Legendre quadrature
     of each step's interpolant; p must be `solution.POWER` (16)."""
     return _power_mean(sol, INT_CONTACT_FORCE_POWER, t_min, t_max, p)
@@ -378,3 +405,51 @@ SMOOTH = {
     "smooth_peak_impact_force": smooth_peak_impact_force,
 }
 """Differentiable metrics, for gradients and optimisation."""
+
+
+CONVERGED_SPREAD = 1e-3  # relative spread of a metric over tolerances below which it is converged
+
+
+@dataclasses.dataclass(frozen=True)
+class Convergence:
+    """What `converged` found: the metric at each relative tolerance, their relative spread
+    (max - min) / max |value| (NaN if a value is not finite), and whether it is at most the
+    tolerance asked for."""
+
+    rtols: tuple[float, ...]
+    values: tuple[float, ...]
+    spread: float
+    converged: bool
+
+
+def converged(
+    model, metric, t1, rtols=(1e-8, 1e-10), tolerance=CONVERGED_SPREAD, ts=None, **simulate_kwargs
+) -> Convergence:
+    """Whether ``metric`` of ``model`` simulated to ``t1`` [s] is converged in the solver's
+    tolerance: it is computed at each relative tolerance of ``rtols`` (absolute tolerance
+    rtol / 100 [m, rad, m/s], the ratio of `default_controller`'s defaults) and is converged
+    when the values' relative spread is at most ``tolerance`` (default `CONVERGED_SPREAD`).
+
+    A metric that moves with the tolerance by more than that (a peak of a chaotic rattle, a
+    very stiff contact) is not a result at any one tolerance: tighten the tolerances, shorten
+    the span or report the spread with the value. ``metric`` is a function of a `Solution`
+    (or a `WithModel`); ``ts`` and ``simulate_kwargs`` go to `simulate`, which runs once per
+    tolerance (one compilation for all)."""
+    from .solve import default_controller, simulate  # the metrics alone never import the solver
+
+    rtols = tuple(float(r) for r in rtols)
+    if len(rtols) < 2:
+        raise ValueError(f"rtols must hold at least two relative tolerances; got {rtols}.")
+    if not tolerance > 0:
+        raise ValueError(f"tolerance must be a relative spread > 0; got {tolerance!r}.")
+    if "stepsize_controller" in simulate_kwargs:
+        raise TypeError("converged sets the step-size controller itself, one for each of rtols.")
+    values = []
+    for rtol in rtols:
+        controller = default_controller(rtol=rtol, atol=rtol / 100)
+        sol = simulate(model, t1, ts, stepsize_controller=controller, **simulate_kwargs)
+        values.append(float(metric(sol, model) if isinstance(metric, WithModel) else metric(sol)))
+    v = np.asarray(values)
+    scale = np.abs(v).max()
+    spread = np.nan if not np.isfinite(v).all() else 0.0 if scale == 0 else float((v.max() - v.min()) / scale)
+    return Convergence(rtols, tuple(values), spread, bool(spread <= tolerance))

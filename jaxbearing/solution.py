@@ -1,7 +1,6 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
 `Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
-`SimulationError`), the columns of the statistics and the start of the default window, each
-defined once.
+`SimulationError`) and the columns of the statistics, each defined once.
 The integrator (`jaxbearing.solve`) writes these; `jaxbearing.metrics` and `jaxbearing.life`
 read them without importing the solver.
 """
@@ -13,7 +12,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-WINDOW_START = 0.04  # [s] start of the metrics' and the life's default window; always a stop
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
 # columns of SegmentStats.peaks and .integrals
@@ -87,9 +85,9 @@ class Contacts(eqx.Module):
 
 class SegmentStats(eqx.Module):
     """Peaks and integrals of the solution over each interval between the solve's stops (t0,
-    `WINDOW_START`, the ``window_edges`` asked for, t1), taken from the solution itself: every
-    accepted solver step and its interpolant (`_recording._step_stats`),
-    not from the output times. `jaxbearing.metrics` combines the intervals inside a window, so
+    the model's ``window_start``, the ``window_edges`` asked for, t1), taken from the solution
+    itself: every accepted solver step and its interpolant (`_recording._step_stats`), not from
+    the output times. `jaxbearing.metrics` combines the intervals inside a window, so
     a window's edges must be stops.
 
     Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
@@ -132,8 +130,8 @@ class SegmentStats(eqx.Module):
 
 class FatigueStats(eqx.Module):
     """What the bearing's fatigue life (`jaxbearing.life`) needs, integrated over the solution
-    itself per interval between the solve's stops (t0, `WINDOW_START`, the ``window_edges``
-    asked for, t1), for the model's first bearing joint.
+    itself per interval between the solve's stops (t0, the model's ``window_start``, the
+    ``window_edges`` asked for, t1), for the model's first bearing joint.
 
     Every integrand is weighted by the relative revolutions the rings turn, w = |omega_inner -
     omega_outer| / (2 pi) [rev/s], and integrated as `SegmentStats`' integrals are (3-point
@@ -188,6 +186,8 @@ class Solution(eqx.Module):
         target: index in q of the x coordinate of the impact target, body k of the model's
             first contact (`CircleContact`: the body its normal force pushes along +n); None
             for a model without impact contact (static).
+        window_start: the model's ``window_start`` [s], where the metrics' and the life's
+            default window starts; None: at the start of the solve.
     """
 
     ts: jax.Array
@@ -210,4 +210,5 @@ class Solution(eqx.Module):
     num_rejected_steps: jax.Array
     num_segments: jax.Array
     num_events: jax.Array
+    window_start: jax.Array | None = None
     target: int | None = eqx.field(static=True, default=None)

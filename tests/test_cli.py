@@ -73,7 +73,7 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
 def fake_segments(ts, loads, bearing, contact):
     """`SegmentStats`-like peaks of the samples, their times and the ball loads at the peak,
     over the intervals between the stops that a solve of [ts[0], ts[-1]] has (t0,
-    `metrics.T_MIN` where inside, t1)."""
+    the paper case's window start where inside, t1)."""
     edges = np.unique(np.clip([ts[0], report.PEAK_FROM, ts[-1]], ts[0], ts[-1]))
     rows, times, at_peak = [], [], []
     for a, b in zip(edges[:-1], edges[1:]):

@@ -133,14 +133,16 @@ def test_duty_cycle_weights_by_revolutions():
 def test_window_and_hours():
     ts = np.linspace(0.0, 0.2, 2001)
     speed = np.full_like(ts, 20 * np.pi)  # 600 rpm
-    f = np.where(ts < 0.04, 1e5, 500.0)  # start-up transient outside the default window
-    p = life.equivalent_load(ts, f, speed)
+    f = np.where(ts < 0.04, 1e5, 500.0)  # start-up transient outside the window
+    p = life.equivalent_load(ts, f, speed, t_min=0.04)
     assert float(p) == pytest.approx(500.0, rel=1e-13)
-    n = life.mean_speed_rpm(ts, speed)
+    n = life.mean_speed_rpm(ts, speed, t_min=0.04)
     assert float(n) == pytest.approx(600.0, rel=1e-13)
     l10 = life.rating_life(15e3, p)
     assert float(life.life_hours(l10, n)) == pytest.approx(1e6 * 30.0**3 / (60 * 600), rel=1e-12)
-    assert float(jnp.sum(life.revolution_weights(ts, speed))) == pytest.approx(0.16 * 10, rel=1e-12)
+    assert float(jnp.sum(life.revolution_weights(ts, speed, t_min=0.04))) == pytest.approx(0.16 * 10, rel=1e-12)
+    # on arrays the default window is the whole history
+    assert float(jnp.sum(life.revolution_weights(ts, speed))) == pytest.approx(0.2 * 10, rel=1e-12)
 
 
 # ------------------------------------------------------------------------- Lundberg–Palmgren
@@ -414,14 +416,15 @@ def test_life_of_a_solution_does_not_depend_on_the_output_times(model, simulated
     ts, rel = uniform.ts, life.relative_speed(uniform, model)
     inner = life.ring_point_loads(uniform, model, "inner")
     outer = life.ring_point_loads(uniform, model, "outer")
+    start = model.window_start  # the solution's default window
     sampled = np.array(
         [
-            life.equivalent_load(ts, uniform.bearing_force, rel),
-            life.mean_speed_rpm(ts, rel),
-            life.ring_equivalent_load(ts, inner, rel),
-            life.ring_equivalent_load(ts, outer, rel),
-            life.ball_equivalent_load(ts, uniform.ball_loads, rel, 3.0),
-            life.ball_equivalent_load(ts, uniform.ball_loads, rel, 10.0 / 3.0),
+            life.equivalent_load(ts, uniform.bearing_force, rel, start),
+            life.mean_speed_rpm(ts, rel, start),
+            life.ring_equivalent_load(ts, inner, rel, start),
+            life.ring_equivalent_load(ts, outer, rel, start),
+            life.ball_equivalent_load(ts, uniform.ball_loads, rel, 3.0, start),
+            life.ball_equivalent_load(ts, uniform.ball_loads, rel, 10.0 / 3.0, start),
         ],
         float,
     )

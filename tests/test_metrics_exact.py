@@ -103,7 +103,7 @@ def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
     time = float(M.peak_time(dense, M.peak_ball_load, t_min=t_min))
     there = [np.interp(time, ts, loads[:, k]) for k in range(loads.shape[1])]
     np.testing.assert_allclose(at_peak, there, rtol=0, atol=2e-5 * value)
-    with pytest.raises(ValueError, match="exact peaks"):
+    with pytest.raises(ValueError, match="of an exact peak"):
         M.peak_time(dense, M.rms_bearing_force)
 
 
@@ -227,7 +227,7 @@ def test_metrics_do_not_depend_on_the_output_times():
     for n in (21, 201, 2001):
         for name, value in values[n].items():
             assert value == pytest.approx(values[200_001][name], rel=0.005), (n, name)
-    after = np.asarray(sol.ts) >= M.T_MIN
+    after = np.asarray(sol.ts) >= float(sol.window_start)
     sampled = float(np.max(np.asarray(sol.contact_force)[after]))
     assert values[200_001]["peak_impact_force"] == pytest.approx(sampled, rel=0.01)
     assert values[200_001]["peak_impact_force"] >= sampled * (1 - 1e-3)

@@ -217,6 +217,15 @@ BAD_INPUTS = [
      r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
      r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
+    (lambda: jb.metrics.peak_ball_load(_short_solution(), [0.0, 1e-3]),
+     r"t_min must be a time \[s\], one number, the window's start, \"model\" \(the model's "
+     r"window_start\) or None \(from t0\); got \[0\.0, 0\.001\]\."),
+    (lambda: jb.metrics.peak_ball_load(_short_solution(), 0.0, "1 ms"),
+     r"t_max must be a time \[s\], one number, the window's end, or None \(to the end of the run\); "
+     r"got '1 ms'\."),
+    (lambda: jb.metrics.peak_time(_short_solution(), "peak_ball_load"),
+     r"metric must be the function \(not its name\) of an exact peak: jaxbearing\.metrics\.peak_ball_load, "
+     r"peak_bearing_force, peak_impact_force or max_target_displacement; got the string 'peak_ball_load'\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=10.0)),
      r"rtol must be below 1 \(a relative error\); got rtol = 10\.0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,
@@ -239,8 +248,8 @@ BAD_INPUTS = [
      r"bearing\.clearance repeats \[4e-05\]: the values of a grid axis label its results and must differ "
      r"\(grid=False takes a list of points, repeats allowed\)\."),
     (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=0.03),
-     r"The standard metrics read the window from t = 0\.04 s \(metrics\.T_MIN\), which t1 = 0\.03 s does "
-     r"not reach: simulate longer, or pass metrics with an earlier t_min"),
+     r"The standard metrics read the model's window from t = 0\.04 s \(model\.window_start\), which "
+     r"t1 = 0\.03 s does not reach: simulate longer, or pass metrics with an earlier t_min"),
 ]
 
 

@@ -13,7 +13,7 @@ from jaxbearing import life, metrics
 
 TS = np.linspace(0.0, 0.005, 51)  # a run shorter than the default window start, 0.04 s
 EMPTY = r"t_min = 0\.04 s to t_max = inf s must hold part of the solved span \[0, 0\.005\] s: " \
-    r"lower t_min \(default 0\.04 s"
+    r"lower t_min \(a metric of a Solution starts by default at the model's window_start\)"
 
 
 @pytest.fixture(scope="module")
@@ -77,13 +77,13 @@ LIFE_EMPTY = r"t_min = 0\.04 s to t_max = inf s must hold at least two of the ou
     r"which span \[0, 0\.005\] s"
 
 
-def life_values(ts, force, rel, loads):
+def life_values(ts, force, rel, loads, t_min=0.04):
     return (
-        life.equivalent_load(ts, force, rel),
-        life.mean_speed_rpm(ts, rel),
-        life.ball_equivalent_load(ts, loads, rel, 3.0),
-        life.ring_equivalent_load(ts, loads, rel),
-        life.rating_life(15e3, life.equivalent_load(ts, force, rel)),
+        life.equivalent_load(ts, force, rel, t_min),
+        life.mean_speed_rpm(ts, rel, t_min),
+        life.ball_equivalent_load(ts, loads, rel, 3.0, t_min),
+        life.ring_equivalent_load(ts, loads, rel, t_min),
+        life.rating_life(15e3, life.equivalent_load(ts, force, rel, t_min)),
     )
 
 

@@ -157,7 +157,7 @@ def test_stops_do_not_change_the_motion(with_impact):
     stats = cut.segments
     valid = np.asarray(stats.valid)
     start, end = np.asarray(stats.t_start)[valid], np.asarray(stats.t_end)[valid]
-    stops = np.sort(np.append(np.linspace(0.0, 0.2, 65)[1:], jb.solution.WINDOW_START))
+    stops = np.sort(np.append(np.linspace(0.0, 0.2, 65)[1:], jb.cases.WINDOW_START))
     np.testing.assert_allclose(end, stops, rtol=0, atol=1e-15)
     duration = np.asarray(stats.integrals)[valid, jb.solution.INT_TIME]
     np.testing.assert_allclose(duration, end - start, rtol=1e-12)

@@ -63,7 +63,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     sim_kwargs = simulate_kwargs_of(simulate_kwargs)
     options = _checked_options(sim_kwargs.get("options"))
     t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
-    window_stops(options.window_edges)
+    window_stops(options.window_edges, model.window_start)
     if options.fatigue is None:
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
@@ -72,11 +72,13 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     sim_kwargs["options"] = options
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
-    if metrics is None and t1 <= _metrics.T_MIN:
+    start = model.window_start
+    if metrics is None and start is not None and t1 <= float(start):
         raise ValueError(
-            f"The standard metrics read the window from t = {_metrics.T_MIN} s (metrics.T_MIN), "
-            f"which t1 = {t1} s does not reach: simulate longer, or pass metrics with an earlier "
-            "t_min (e.g. functools.partial(jb.metrics.peak_ball_load, t_min=0.0))."
+            f"The standard metrics read the model's window from t = {float(start):g} s "
+            f"(model.window_start), which t1 = {t1} s does not reach: simulate longer, or pass "
+            "metrics with an earlier t_min (e.g. functools.partial(jb.metrics.peak_ball_load, "
+            "t_min=None))."
         )
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
 

@@ -10,6 +10,7 @@ from ._xu2014 import (
     TABLE5,
     TABLE5_TIMES,
     TARGET,
+    WINDOW_START,
     skf98205,
     xu2014,
 )
@@ -22,6 +23,7 @@ __all__ = [
     "TABLE5",
     "TABLE5_TIMES",
     "TARGET",
+    "WINDOW_START",
     "rotor",
     "skf98205",
     "xu2014",

@@ -22,6 +22,7 @@ def rotor(
     initial_velocity=(0.0, 0.0),
     gravity=(0.0, -9.80665),
     driven=True,
+    window_start=None,
 ) -> Mechanism:
     """A disc of ``mass`` [kg] and ``inertia`` [kg m^2] in ``bearing``.
 
@@ -31,6 +32,7 @@ def rotor(
         initial_offset, initial_velocity: of the bearing axis from the outer-race centre [m],
             [m/s] at t = 0 (the disc starts with its centroid at +x of the axis).
         gravity: [m/s^2], or None.
+        window_start: where the metrics' default window starts [s]; None: the whole span.
     """
     centre = (-eccentricity, 0.0)  # bearing axis in the disc frame
     q0 = [initial_offset[0] + eccentricity, initial_offset[1], 0.0]
@@ -44,4 +46,5 @@ def rotor(
         forces=(BearingJoint(GROUND, (0.0, 0.0), 0, centre, bearing),),
         gravity=None if gravity is None else Gravity(gravity),
         body_names=("rotor",),
+        window_start=window_start,
     )

@@ -26,8 +26,9 @@ Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundbergâ€
   of relative revolutions. A load carried while the rings do not turn relative to each other
   does not count. Short impacts count by the revolutions turned while they last (the
   standard's convention for variable loads), not as extra stress cycles.
-- **Window.** [t_min, t_max] (default t >= `T_MIN`, which is `solution.WINDOW_START`, after
-  the start-up transient of `cases.xu2014`). On arrays, the weights integrate the samples'
+- **Window.** [t_min, t_max]. On a `Solution` the default (``t_min="model"``) starts at the
+  model's ``window_start`` (`Mechanism`; `cases.xu2014` after its start-up transient; None: the
+  whole span); on arrays the default (None) is the whole history. On arrays, the weights integrate the samples'
   piecewise-linear interpolant over the window exactly, edges between samples included
   (`metrics.window_weights`, the rule of `metrics.window` too); on a `Solution`, the window is
   a union of the solve's stop intervals.
@@ -39,7 +40,6 @@ checked here.
 """
 
 from ._formulas import (
-    T_MIN,
     ball_equivalent_load,
     bearing_life,
     equivalent_load,
@@ -75,7 +75,6 @@ __all__ = [
     "FC_RATIO",
     "FC_TABLE",
     "ISO_REDUCTION",
-    "T_MIN",
     "LPLife",
     "RatingLife",
     "ball_equivalent_load",

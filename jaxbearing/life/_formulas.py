@@ -11,9 +11,6 @@ import numpy as np
 from .. import _checks
 from .._checks import is_concrete
 from ..metrics import check_window, window_weights
-from ..solution import WINDOW_START
-
-T_MIN = WINDOW_START  # [s] start of the default window (as in `jaxbearing.metrics`)
 
 
 def _bounds(t_min, t_max):
@@ -104,7 +101,7 @@ def _weights(ts, relative_speed, lo, hi):
     return trap, trap * jnp.abs(relative_speed) / (2.0 * jnp.pi)
 
 
-def revolution_weights(ts, relative_speed, t_min=T_MIN, t_max=None):
+def revolution_weights(ts, relative_speed, t_min=None, t_max=None):
     """Weight of each output time in relative revolutions: trapezoid weight times
     |omega_rel| / (2 pi), zero outside [t_min, t_max] (None: unbounded). Sums to the relative
     revolutions turned in the window.
@@ -137,7 +134,7 @@ def _equivalent_load(ts, force, rel, lo, hi, p):
     return _safe_power(_weighted_mean(_force_power(force, p), w), 1.0 / p)
 
 
-def equivalent_load(ts, force, relative_speed, t_min=T_MIN, t_max=None, exponent=3.0):
+def equivalent_load(ts, force, relative_speed, t_min=None, t_max=None, exponent=3.0):
     """Equivalent dynamic load P [N] of a varying load, weighted by relative revolutions
     (ISO/TR 1281-1; Harris & Kotzalas):
 
@@ -171,7 +168,7 @@ def rating_life(load_rating, equivalent, exponent=3.0):
     return _safe_ratio(c**exponent, _safe_power(p, exponent))
 
 
-def mean_speed_rpm(ts, relative_speed, t_min=T_MIN, t_max=None):
+def mean_speed_rpm(ts, relative_speed, t_min=None, t_max=None):
     """Mean relative speed n = <|omega_inner - omega_outer|> 60 / (2 pi) [rpm] over the window
     (time average, trapezoid rule)."""
     ts, rel = _times(ts), _relative_speed(relative_speed)
@@ -200,7 +197,7 @@ def life_hours(l10, speed_rpm):
 # --------------------------------------------------------------------------------------------
 
 
-def ball_equivalent_load(ts, ball_loads, relative_speed, exponent, t_min=T_MIN, t_max=None):
+def ball_equivalent_load(ts, ball_loads, relative_speed, exponent, t_min=None, t_max=None):
     """Equivalent ball load over all balls and time, weighted by relative revolutions (Harris
     & Kotzalas, ch. 8):
 
@@ -242,7 +239,7 @@ def ring_cube_mean(cubic):
     return _safe_power(jnp.mean(_safe_power(cubic, 10.0 / 9.0)), 0.9)
 
 
-def ring_equivalent_load(ts, ring_loads, relative_speed, t_min=T_MIN, t_max=None):
+def ring_equivalent_load(ts, ring_loads, relative_speed, t_min=None, t_max=None):
     """Equivalent ball load of a ring [N] from the load history of its own material points.
 
     ``ring_loads[t, k]`` is the load a ball exerts when it passes point k of M equally spaced

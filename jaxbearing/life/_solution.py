@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from .._checks import is_concrete
-from ..metrics import WithModel, intervals_inside
+from ..metrics import WithModel, intervals_inside, window_start
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     FAT_BALL_CUBED,
@@ -27,7 +27,6 @@ from ..solution import (
     Solution,
 )
 from ._formulas import (
-    T_MIN,
     _combine,
     _safe_power,
     _safe_ratio,
@@ -116,7 +115,7 @@ def _check_solution(sol: Solution, bearing: int):
 
 
 def iso_life(
-    sol: Solution, model: Mechanism, *, t_min=T_MIN, t_max=None, bearing: int = 0
+    sol: Solution, model: Mechanism, *, t_min="model", t_max=None, bearing: int = 0
 ) -> RatingLife:
     """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
     (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
@@ -127,9 +126,9 @@ def iso_life(
     accepted step's interpolant), not of the output times.
 
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
-    [s], whose edges must be ends of the solve's stop intervals (t0, `T_MIN`,
-    ``SolveOptions.window_edges``, t1); bearing: index of the bearing joint (0, the one
-    `Solution` records).
+    [s] ("model": the model's ``window_start``; None: unbounded), whose edges must be ends of
+    the solve's stop intervals (t0, the model's ``window_start``, ``SolveOptions.window_edges``,
+    t1); bearing: index of the bearing joint (0, the one `Solution` records).
     """
     _check_solution(sol, bearing)
     z, d, dm = _bearing_geometry(model, bearing)
@@ -147,7 +146,7 @@ def _window_integrals(sol: Solution, t_min, t_max):
     (M,)); NaN when the window's edges are not ends of the stop intervals (traced). Raises
     when, concretely, the rings do not turn relative to each other in the window."""
     stats = sol.fatigue
-    inside, ok = intervals_inside(stats, _lower(t_min), t_max, "stop intervals")
+    inside, ok = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
 
     def total(x):
         return jnp.where(ok, jnp.sum(jnp.where(inside[:, None], x, 0.0), axis=0), jnp.nan)
@@ -160,10 +159,6 @@ def _window_integrals(sol: Solution, t_min, t_max):
             "throughout): fatigue life is counted in relative revolutions."
         )
     return integrals, total(stats.inner), total(stats.outer)
-
-
-def _lower(t_min):
-    return -jnp.inf if t_min is None else t_min
 
 
 def _mean(integral, revolutions):
@@ -211,7 +206,7 @@ def lp_life(
     *,
     groove_inner=0.52,
     groove_outer=0.52,
-    t_min=T_MIN,
+    t_min="model",
     t_max=None,
     rotating: Literal["inner", "outer"] | None = None,
     points_per_ball: int | None = None,
@@ -250,8 +245,9 @@ def lp_life(
         groove_inner, groove_outer: raceway conformities f = r/D (`BallBearing` does not store
             them; 0.52, 0.52 are those ISO 281's Table 2 assumes; `cases.xu2014` uses
             0.5219, 0.5194, docs/model.md, 'Groove curvature ratios').
-        t_min, t_max: window [s]; its edges must be ends of the solve's stop intervals (t0,
-            `T_MIN`, ``SolveOptions.window_edges``, t1).
+        t_min, t_max: window [s] ("model": the model's ``window_start``; None: unbounded);
+            its edges must be ends of the solve's stop intervals (t0, the model's
+            ``window_start``, ``SolveOptions.window_edges``, t1).
         rotating: None (follow ring points), "inner" or "outer" (Harris' rule on ball loads).
         points_per_ball: ring points per ball spacing for ``rotating=None``: the solve follows
             `solution.RING_POINTS_PER_BALL`; None or that number.

@@ -46,6 +46,9 @@ class Mechanism(eqx.Module):
         q0, qd0: initial coordinates [m, rad] and velocities [m/s, rad/s], (3 n_bodies,).
         baumgarte_alpha, baumgarte_beta: Baumgarte stabilisation parameters [1/s] (Eq. 36).
         body_names: labels of the bodies, in order (static).
+        window_start: where the default window of `jaxbearing.metrics` and `jaxbearing.life`
+            starts [s], e.g. after a start-up transient; the solve stops there. None (the
+            default): the whole solved span.
     """
 
     bodies: tuple[Body, ...]
@@ -58,6 +61,7 @@ class Mechanism(eqx.Module):
     baumgarte_alpha: jax.Array
     baumgarte_beta: jax.Array
     body_names: tuple[str, ...] = eqx.field(static=True)
+    window_start: jax.Array | None
 
     def __init__(
         self,
@@ -72,6 +76,7 @@ class Mechanism(eqx.Module):
         baumgarte_alpha=5.0,
         baumgarte_beta=5.0,
         body_names=None,
+        window_start=None,
     ):
         self.bodies = tuple(bodies)
         self.joints = tuple(joints)
@@ -96,6 +101,11 @@ class Mechanism(eqx.Module):
         if len(names) != len(self.bodies):
             raise ValueError(f"body_names has {len(names)} entries for {len(self.bodies)} bodies.")
         self.body_names = names
+        if window_start is not None:
+            window_start = _checks.as_float(window_start, "window_start", "s")
+            if window_start.ndim:
+                raise ValueError(f"window_start must be one time [s] or None; got shape {window_start.shape}.")
+        self.window_start = window_start
         for element in self.forces:
             for body in element.bodies():
                 if body >= len(self.bodies) or body < -1:

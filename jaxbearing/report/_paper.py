@@ -8,11 +8,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import metrics
-from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES
-from ..metrics import T_MIN
+from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES, WINDOW_START
 from ._series import as_series, ball_keys, contacts, first_contact, onsets, series
 
-PEAK_FROM = T_MIN  # [s] peaks are taken after the bearing's start-up transient (docs/model.md)
+PEAK_FROM = WINDOW_START  # [s] peaks are taken after the paper case's start-up transient (docs/model.md)
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
 
 

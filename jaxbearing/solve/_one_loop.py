@@ -61,7 +61,7 @@ def simulate_one_loop(
     raises (use `simulate`).
     """
     a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
-    stops = window_stops(a.options.window_edges)
+    stops = window_stops(a.options.window_edges, a.model.window_start)
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets

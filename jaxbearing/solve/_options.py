@@ -12,8 +12,8 @@ class SolveOptions(eqx.Module):
     Fields:
         t0: start time [s]; ``model.q0, qd0`` must satisfy the joints there (default 0).
         window_edges: further times [s] at which the solve stops, so that `jaxbearing.metrics`
-            and `jaxbearing.life` can use them as window edges (t0, `WINDOW_START` and t1
-            always are). A tuple: its length is part of the compiled solve.
+            and `jaxbearing.life` can use them as window edges (t0, the model's
+            ``window_start`` and t1 always are). A tuple: its length is part of the compiled solve.
         fatigue: record `Solution.fatigue`, the integrals the bearing's life reads
             (`jaxbearing.life`); False: ``sol.fatigue`` is None and the life functions refuse
             the solution. None (the default): True for a single run; in `jaxbearing.sweep`,

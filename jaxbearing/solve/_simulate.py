@@ -9,7 +9,7 @@ run that needs more segments than that fails loudly.
 While it integrates, the core records the peaks and integrals that `jaxbearing.metrics` needs
 (`SegmentStats`), from every accepted step and the step's interpolant, so that the metrics do
 not depend on the output times; and the bearing life's integrals (`FatigueStats`). Both are kept
-per interval between stops (`WINDOW_START`, the window edges asked for, t1).
+per interval between stops (the model's ``window_start``, the window edges asked for, t1).
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     RESULTS,
-    WINDOW_START,
     Contacts,
     FatigueStats,
     SegmentStats,
@@ -148,7 +147,7 @@ def simulate(
         solver,
         stepsize_controller,
         jnp.asarray(max_steps),  # an array, like rtol and atol: another value compiles nothing
-        window_stops(options.window_edges),
+        window_stops(options.window_edges, model.window_start),
         options.fatigue is not False,
         sizes,
         None if progress is None else label_key(progress),
@@ -307,16 +306,17 @@ def _check_max_steps(max_steps):
         raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
 
 
-def window_stops(window_edges) -> jax.Array:
-    """The stops a solve adds to t1: `WINDOW_START` and the ``window_edges`` [s];
-    a `ValueError` unless those are a tuple (or list) of finite numbers."""
+def window_stops(window_edges, window_start=None) -> jax.Array:
+    """The stops a solve adds to t1: the model's ``window_start`` (unless None) and the
+    ``window_edges`` [s]; a `ValueError` unless those are a tuple (or list) of finite numbers."""
     wrong = ValueError(
         f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
     )
     if not isinstance(window_edges, (tuple, list)) or any(isinstance(e, (bool, str)) for e in window_edges):
         raise wrong
+    start = () if window_start is None else (window_start,)
     try:
-        stops = jnp.asarray((WINDOW_START,) + tuple(window_edges), jnp.float64)
+        stops = jnp.asarray(start + tuple(window_edges), jnp.float64)
     except (TypeError, ValueError):
         raise wrong from None
     if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):
@@ -540,6 +540,7 @@ def _outputs(
         num_segments=n_used,
         num_events=n_events,
         target=3 * model.contacts[0].body_k if model.contacts else None,
+        window_start=model.window_start,
     )
 
 

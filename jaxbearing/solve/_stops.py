@@ -1,4 +1,4 @@
-"""Where steps end (the stops: `WINDOW_START`, the window edges, t1), the output block of a
+"""Where steps end (the stops: the model's window start, the window edges, t1), the output block of a
 segment, and the solver settings that depend on the adjoint and the controller."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ _FROM_CONTROLLER = diffrax.with_stepsize_controller_tols(optx.Chord)().rtol
 OUTPUT_BLOCK = 64  # output times a segment evaluates and writes together (`default_output_block`)
 
 def stops(t0, t1, extra):
-    """The times at which steps end, increasing: `WINDOW_START` and the window edges
+    """The times at which steps end, increasing: the model's window start and the window edges
     (``extra``) inside (t0, t1), and t1. A static count: the times outside (t0, t1), and a
     time equal to its predecessor, move to t1, where the run finishes."""
     extra = jnp.where((extra > t0) & (extra < t1), extra, t1)
