@@ -100,6 +100,12 @@ def read_overrides(path) -> dict[str, dict[str, object]]:
             data = tomllib.load(f)
     except OSError as err:
         raise ConfigError(f"cannot read the configuration file {path}: {err.strerror}.") from None
+    except UnicodeDecodeError as err:
+        byte = err.object[err.start : err.start + 1]
+        raise ConfigError(
+            f"{path} is not UTF-8 text (byte {err.start} is {byte!r}): a TOML file must be "
+            "UTF-8; save it with that encoding."
+        ) from None
     except tomllib.TOMLDecodeError as err:
         raise ConfigError(f"{path} is not valid TOML: {err}.") from None
     return check_overrides(data, source=str(path))
@@ -113,20 +119,21 @@ def check_overrides(data: Mapping, source: str = "configuration") -> dict[str, d
         if table not in XU2014:
             where = "table" if isinstance(entries, Mapping) else "top-level key"
             raise ConfigError(
-                f"{source}: unknown {where} {table!r}; the allowed keys are {allowed} "
+                f"{source}: unknown {where} {_echo(table)}; the allowed keys are {allowed} "
                 "(each inside its table, e.g. [bearing] clearance = 4e-5)."
             )
         if not isinstance(entries, Mapping):
             raise ConfigError(
                 f"{source}: {table!r} must be a table ([{table}]) of keys; got "
-                f"{_kind(entries)} {entries!r}."
+                f"{_kind(entries)} {_echo(entries)}."
             )
         checked[table] = {}
         for key, value in entries.items():
             option = XU2014[table].get(key)
             if option is None:
+                name = _echo(key, quote=False)
                 raise ConfigError(
-                    f"{source}: unknown key {table}.{key}; the allowed keys are {allowed}."
+                    f"{source}: unknown key {table}.{name}; the allowed keys are {allowed}."
                 )
             checked[table][key] = _value(f"{source}: {table}.{key}", option, value)
     return checked
@@ -137,23 +144,35 @@ def _value(name, option, value):
         if not isinstance(value, str) or value not in option.choices:
             raise ConfigError(
                 f"{name} must be one of {', '.join(repr(c) for c in option.choices)}; got "
-                f"{_kind(value)} {value!r}."
+                f"{_kind(value)} {_echo(value)}."
             )
         return value
     if isinstance(value, str):
         raise ConfigError(
-            f"{name} must be a number in SI units [{option.unit}]; got the string {value!r} "
+            f"{name} must be a number in SI units [{option.unit}]; got the string {_echo(value)} "
             "(unit strings are not accepted: write the number itself, converted to SI)."
         )
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(
             f"{name} must be a single number in SI units [{option.unit}]; got {_kind(value)} "
-            f"{value!r}."
+            f"{_echo(value)}."
         )
     number = float(value) if abs(value) < 1e308 else math.inf  # huge TOML integers
     if not math.isfinite(number):
-        raise ConfigError(f"{name} must be a finite number [{option.unit}]; got {value!r}.")
+        raise ConfigError(f"{name} must be a finite number [{option.unit}]; got {_echo(value)}.")
     return number
+
+
+ECHO_LIMIT = 80  # characters of a value echoed in a message
+
+
+def _echo(value, quote=True) -> str:
+    """``repr(value)`` (``str`` without ``quote``), cut to `ECHO_LIMIT` characters with its length
+    said: a 20 MB string in a file is named, not printed."""
+    text = repr(value) if quote else str(value)
+    if len(text) <= ECHO_LIMIT:
+        return text
+    return f"{text[:ECHO_LIMIT]}... ({len(text)} characters)"
 
 
 def _kind(value) -> str:

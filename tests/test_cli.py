@@ -364,13 +364,17 @@ BAD_CONFIGS = [
     ("[impact]\nrestitution = 1.5\n", r"restitution must lie in \(0\.0, 1\.0\]; got 1\.5\."),
     ("[bearing\nclearance = 4e-5\n", r"is not valid TOML"),
     ("[impact]\nrestitution = __import__('os').system('touch evaluated')\n", r"is not valid TOML"),
+    pytest.param('[bearing]\ncage = "k\xe9"\n'.encode("latin-1"),
+                 r"is not UTF-8 text \(byte 19 is b'\\xe9'\): a TOML file must be UTF-8", id="latin-1"),
+    pytest.param('[bearing]\ncage = "' + "x" * 20_000_000 + '"\n',
+                 r"got the string 'x{79}\.\.\. \(20000002 characters\)\.\n$", id="20 MB string"),
 ]
 
 
 @pytest.mark.parametrize("text, message", BAD_CONFIGS)
 def test_bad_config_is_refused_before_anything_runs(tmp_path, capsys, monkeypatch, text, message):
     path = tmp_path / "overrides.toml"
-    path.write_text(text)
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
     out = tmp_path / "out"
     monkeypatch.chdir(tmp_path)  # where an evaluated expression would write
     assert cli.main(["xu2014", "--out", str(out), "--config", str(path)]) == 2

@@ -1,6 +1,9 @@
 """Bad input gets a clear error naming the parameter and what is allowed; failures never hand
 back silent NaNs."""
 
+import tempfile
+from pathlib import Path
+
 import diffrax
 import equinox as eqx
 import jax
@@ -10,6 +13,7 @@ import optax
 import pytest
 
 import jaxbearing as jb
+from jaxbearing import config
 from jaxbearing.multibody import (
     GROUND,
     Body,
@@ -239,6 +243,13 @@ BAD_INPUTS = [
     (lambda: jb.tune(lambda m: 0.0, jb.cases.xu2014(), ["bearing.clearance"], optax.adam(0.1), 1,
                      scale={"bearing.clearance": -4e-5}),
      r"scale of bearing\.clearance must be a finite number > 0 \(in its units\); got -4e-05\."),
+    # configuration files: not UTF-8 (named), a huge value (echoed cut short)
+    (lambda: config.read_overrides(_config_file('[bearing]\ncage = "k\xe9"\n'.encode("latin-1"))),
+     r"overrides\.toml is not UTF-8 text \(byte 19 is b'\\xe9'\): a TOML file must be UTF-8; save it "
+     r"with that encoding\."),
+    (lambda: config.check_overrides({"bearing": {"cage": "x" * 20_000_000}}),
+     r"^configuration: bearing\.cage must be one of 'kinematic', 'constant'; got the string "
+     r"'x{79}\.\.\. \(20000002 characters\)\.$"),
     # sweeps check their span and output times before running anything
     (lambda: jb.sweep(jb.cases.xu2014(impact=False), {"bearing.clearance": [4e-5]}, t1=float("inf")),
      r"t1 must be a finite number \[s\]; got t1 = inf\."),
@@ -251,6 +262,13 @@ BAD_INPUTS = [
      r"The standard metrics read the model's window from t = 0\.04 s \(model\.window_start\), which "
      r"t1 = 0\.03 s does not reach: simulate longer, or pass metrics with an earlier t_min"),
 ]
+
+
+def _config_file(data: bytes):
+    """A configuration file holding ``data``, in a new temporary folder."""
+    path = Path(tempfile.mkdtemp()) / "overrides.toml"
+    path.write_bytes(data)
+    return path
 
 
 def _short_solution():
