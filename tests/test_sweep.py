@@ -221,7 +221,7 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
         assert (f["status"], f["result"]) == (MAX_STEPS_REACHED, "max_steps_reached")
         assert f["message"] == "The maximum number of solver steps was reached. Try increasing `max_steps`."
     warning = grid_result[2]
-    assert warning.startswith("sweep: 3 of 6 members failed; their metrics are NaN")
+    assert warning.startswith("sweep: 3 of 6 members failed; the metrics of a failed solve are NaN")
     assert ("\n  point 3 (bearing.clearance = 4e-05, bearing.damping = 1e+08): max_steps_reached: "
             "The maximum number of solver steps was reached.") in warning
 

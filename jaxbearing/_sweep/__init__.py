@@ -62,10 +62,19 @@ How it runs
   (-1) and NaN metrics (in multi-process runs such an error is re-raised instead).
   Invalid parameter values (e.g. a negative clearance) are rejected before anything runs, with a
   `ValueError` naming the point.
+- NaN is never a silent result: a member whose solve succeeded but one of whose metrics is NaN
+  or infinite gets ``status = NOT_FINITE`` (-2, ``failed``); its message names those metrics
+  and the usual cause (a window edge that is not a stop of the solve, or a window outside the
+  solved span); its other metrics are kept. Window edges given to a metric as numbers
+  (``functools.partial(metrics.peak_ball_load, t_min=0.09)``, `life.metric`'s ``t_min``) are
+  added to the members' ``window_edges`` where they are not stops already
+  (`arguments.with_metric_edges`), so those metrics are exact; an edge hidden inside a function
+  cannot be seen before the solve and gives NaN, so its member fails.
 - Failed members are reported with their parameters: one `RuntimeWarning` at the end lists
   them (point index, parameter values, result name and message, up to 10 lines), and
   ``attrs["failures"]`` (JSON) holds them all, each as ``{"index", "point": {path: value},
-  "status", "result", "message"}`` (for `RAISED` the error's message).
+  "status", "result", "message"}`` (for `RAISED` the error's message, for `NOT_FINITE` the
+  metrics that are not finite).
 - To use several CPU cores as devices, set ``XLA_FLAGS=--xla_force_host_platform_device_count=N``
   in the environment before JAX is imported.
 
@@ -91,6 +100,22 @@ differ in the last bits between the chunks computed before and after), and ``res
 records both sets. ``results.nc`` carries the manifest's records as attributes (``versions``,
 ``model_parameters``, ``simulate_kwargs``, ... as JSON): with the coordinates they are the full
 input of every member.
+
+One writer at a time. Process 0 holds an advisory lock on the folder (``fcntl.flock`` on
+``.sweep.lock``, which names its pid and host) from checking the manifest to writing
+``results.nc``; the kernel releases it when the process ends, however it ends. A second
+process that calls the same sweep on the folder waits, with a message on stderr, and then
+resumes from what the first wrote, so no point is computed twice and nothing is lost; a
+different sweep (another manifest) is refused at once. With the lock held, the temporary files
+of the sweep's own files (``.chunk_*.npz.*.tmp``, ...) found at start-up belong to a process
+that has ended and are deleted; no other file is. (``flock`` locks work between the processes of
+one host and, on Linux, on NFS; on a file system without locks the sweep goes on with a
+`RuntimeWarning`.)
+
+A folder this process cannot write (permissions, a read-only file system) is found before
+anything is computed: `PermissionError` naming the folder, unless the sweep in it is finished
+(every chunk written), which then loads; ``results.nc`` is written only when it is missing, does
+not hold the loaded Dataset, or chunks were computed in this call.
 
 Several hosts (``jax.distributed``)
 -----------------------------------
@@ -118,12 +143,13 @@ bar) and `driver` (`sweep`, a list of these stages).
 
 from .arguments import DEFAULT_SAMPLES, default_chunk_size, needs_samples
 from .driver import sweep
-from .kernel import RAISED
+from .kernel import NOT_FINITE, RAISED
 from .store import MANIFEST, RESULTS_FILE
 
 __all__ = [
     "DEFAULT_SAMPLES",
     "MANIFEST",
+    "NOT_FINITE",
     "RAISED",
     "RESULTS_FILE",
     "default_chunk_size",

@@ -4,8 +4,10 @@ metrics (and whether they need output samples), simulate's settings, output time
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from typing import NamedTuple
 
@@ -64,6 +66,8 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     options = _checked_options(sim_kwargs.get("options"))
     t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
     window_stops(options.window_edges, model.window_start)
+    start = None if "window_start" in names else model.window_start  # a stop, unless swept
+    options = with_metric_edges(options, items, t0, t1, start)
     if options.fatigue is None:
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
@@ -81,6 +85,34 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
             "t_min=None))."
         )
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
+
+
+def metric_edges(items) -> set[float]:
+    """The window edges [s] the metrics fix before any solve: the numbers given as ``t_min`` or
+    ``t_max`` to a `functools.partial` of a metric (inside a `metrics.WithModel` too)."""
+    edges = set()
+    for _, fn in items:
+        inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
+        keywords = inner.keywords if isinstance(inner, functools.partial) else {}
+        for value in (keywords.get("t_min"), keywords.get("t_max")):
+            if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
+                edges.add(float(value))
+    return edges
+
+
+def with_metric_edges(options, items, t0, t1, window_start):
+    """``options`` with the metrics' window edges (`metric_edges`) inside (t0, t1) that are not
+    stops of the solve (t0, t1, the model's ``window_start`` [s] unless None, the
+    ``window_edges``) added to its ``window_edges``: the members' windows then end on stops and
+    the metrics are exact, not NaN."""
+    stops = [t0, t1, *options.window_edges, *([] if window_start is None else [float(window_start)])]
+    new = sorted(
+        e for e in metric_edges(items)
+        if t0 < e < t1 and all(abs(e - s) > _metrics.EDGE_TOLERANCE for s in stops)
+    )  # fmt: skip
+    if not new:
+        return options
+    return dataclasses.replace(options, window_edges=(*options.window_edges, *new))
 
 
 def driver_of(items, ts) -> str:

@@ -9,14 +9,31 @@ import numpy as np
 
 from .. import _files
 from ..solution import RESULTS
-from .kernel import RAISED, SUCCESS
+from .kernel import NOT_FINITE, RAISED, SUCCESS
+
+NOT_FINITE_HINT = (
+    "a metric is NaN when its window starts or ends at a time the solve did not stop at (add "
+    "that time to SolveOptions(window_edges=...)) or holds none of the solved span"
+)
 
 
 def status_codes():
-    """{code: name} of every status a member can have (`RESULTS` and `RAISED`)."""
+    """{code: name} of every status a member can have (`RESULTS`, `RAISED`, `NOT_FINITE`)."""
     codes = {int(item._value): name for name, item in RESULTS._name_to_item.items()}
     codes[RAISED] = "raised"
+    codes[NOT_FINITE] = "metric_not_finite"
     return codes
+
+
+def flag_not_finite(metric_names, values, status, errors):
+    """(status, errors) with every member whose solve succeeded but whose metric ``values``
+    (n, n_metrics) hold NaN or infinity marked `NOT_FINITE`, its error naming those metrics."""
+    status, errors = status.copy(), np.asarray(errors, dtype=object).copy()
+    for i in np.flatnonzero((status == SUCCESS) & ~np.isfinite(values).all(axis=1)):
+        bad = [f"{n} = {v}" for n, v in zip(metric_names, values[i]) if not np.isfinite(v)]
+        status[i] = NOT_FINITE
+        errors[i] = f"{', '.join(bad)}: {NOT_FINITE_HINT}"
+    return status, errors
 
 
 def _result_message(code):
@@ -26,7 +43,7 @@ def _result_message(code):
 
 def failures(names, points, status, errors) -> list[dict]:
     """One record per failed member (status != 0): its flat index, parameter values, status
-    code, result name and message (a `RAISED` member's error message)."""
+    code, result name and message (for `RAISED` and `NOT_FINITE` its ``errors`` entry)."""
     codes = status_codes()
     return [
         {
@@ -34,7 +51,8 @@ def failures(names, points, status, errors) -> list[dict]:
             "point": dict(zip(names, points[i].tolist())),
             "status": int(status[i]),
             "result": codes.get(int(status[i]), "unknown"),
-            "message": str(errors[i]) if status[i] == RAISED else _result_message(int(status[i])),
+            "message": (str(errors[i]) if status[i] in (RAISED, NOT_FINITE)
+                        else _result_message(int(status[i]))),  # fmt: skip
         }
         for i in np.flatnonzero(status != SUCCESS)
     ]
@@ -50,8 +68,8 @@ def failure_report(records, n_points, limit=10):
     if len(records) > limit:
         lines.append(f"  ... and {len(records) - limit} more")
     return (
-        f"sweep: {len(records)} of {n_points} members failed; their metrics are NaN (the "
-        "Dataset attribute 'failures' lists them all):\n" + "\n".join(lines)
+        f"sweep: {len(records)} of {n_points} members failed; the metrics of a failed solve are "
+        "NaN (the Dataset attribute 'failures' lists them all):\n" + "\n".join(lines)
     )
 
 
@@ -72,7 +90,10 @@ def dataset(request, state, record):
     data["failed"] = (dims, state.status.reshape(shape) != SUCCESS)
     ds = xr.Dataset(data, coords=coords, attrs=_attributes(request, state, record))
     ds["status"].attrs["description"] = "jaxbearing.RESULTS code of the solve, 0 = successful"
-    ds["failed"].attrs["description"] = "status != 0: the solve failed, its metrics are NaN"
+    ds["failed"].attrs["description"] = (
+        "status != 0: the solve failed or raised (its metrics are NaN), or a metric is NaN or "
+        "infinite (metric_not_finite; the other metrics are kept)"
+    )
     return ds
 
 
@@ -102,6 +123,28 @@ def _attributes(request, state, record):
     if "versions_at_start" in record:
         attrs["versions_at_start"] = json.dumps(record["versions_at_start"])
     return attrs
+
+
+VERSION_ATTRS = ("versions", "versions_at_start")  # the package versions of the call
+
+
+def holds(path, ds) -> bool:
+    """Whether the netCDF file ``path`` holds ``ds``: its data, coordinates and attributes, the
+    package versions of this call aside (False when missing or unreadable)."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as saved:
+            saved = saved.load()
+    except (OSError, ValueError):
+        return False
+    return _without_versions(saved).identical(_without_versions(ds))
+
+
+def _without_versions(ds):
+    ds = ds.copy()
+    ds.attrs = {k: v for k, v in ds.attrs.items() if k not in VERSION_ATTRS}
+    return ds
 
 
 def write_results(ds, path):

@@ -52,7 +52,14 @@ def sweep(
             when none reads the output samples (`metrics.STANDARD`, `metrics.SMOOTH`,
             `life.metric` and functions marked ``sample_free = True`` come from the solve's
             per-step records), else ``linspace(t0, t1, 2001)``.
-        out: folder to write to and resume from (see the package doc), or None.
+        out: folder to write to and resume from (see the package doc), or None. One sweep
+            writes a folder at a time (an advisory lock, ``fcntl.flock`` on its ``.sweep.lock``):
+            while another process holds it, the same sweep waits, with a message on stderr, and
+            then resumes from what the other wrote, computing only what is still missing; a
+            different sweep (another manifest) is refused at once with a `ValueError`. A folder
+            this process cannot write is refused with a `PermissionError` naming it before
+            anything is computed, unless the sweep in it is finished: then it loads, and
+            ``results.nc`` is rewritten only if it is missing or differs from the chunk files.
         chunk_size: points per device per chunk (default `default_chunk_size`: 32 on CPU; on
             accelerators 4096, or 65536 where members run as one loop; or the layout already
             in ``out``).
@@ -62,11 +69,15 @@ def sweep(
             ``adjoint`` are the sweep's. Each member runs the same integrator core: as
             `simulate_one_loop` (one while loop, the faster in batches) where nothing reads
             output samples, else as `simulate`; the metrics agree to the solver's accuracy. Without ``options.fatigue`` set, members record the life's integrals only
-            where a metric reads them.
+            where a metric reads them. A window edge given as a number to a metric
+            (``functools.partial(peak_ball_load, t_min=0.09)``, `life.metric`'s ``t_min``)
+            that is not a stop of the solve is added to ``options.window_edges``, so that the
+            metric is exact (`arguments.with_metric_edges`).
 
     Returns:
         `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =
-        successful, or `RAISED`; ``attrs["status_codes"]`` names them) and ``failed`` (bool). Grid: one
+        successful, or `RAISED`, or `NOT_FINITE` where the solve succeeded but a metric is NaN
+        or infinite; ``attrs["status_codes"]`` names them) and ``failed`` (bool). Grid: one
         dimension and coordinate per parameter. List: dimension ``point``, the parameters as
         coordinates along it. Attributes record t1, t0, ts, the tolerances and solver, every
         model parameter (``model_parameters``), the model fingerprint, the package versions
@@ -86,12 +97,15 @@ def sweep(
     chunk_points = arguments.chunk_points(chunk_size, n_devices, n_points, request.solve)
     record = store.manifest(model, request)
     metric_names = [name for name, _ in request.metric_items]
-    state = store.restore(out, record, chunk_size, chunk_points, n_devices, request.points, metric_names)
-    mesh = jax.make_mesh((n_devices,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
-    runner = kernel.ChunkRunner(model, request, mesh, arguments.padded_rows(state.chunk_points, n_devices))
-    computed, chunk_seconds = _compute(runner, request, state, out, metric_names, progress)
-    ds = _dataset.dataset(request, state, record)
-    _finish(ds, out, request.points.shape[0])
+    with store.Folder(out) as folder:  # locked from here to the end (process 0)
+        state = store.restore(folder, record, chunk_size, chunk_points, n_devices, request.points,
+                              metric_names)  # fmt: skip
+        mesh = jax.make_mesh((n_devices,), (kernel.AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
+        padded = arguments.padded_rows(state.chunk_points, n_devices)
+        runner = kernel.ChunkRunner(model, request, mesh, padded)
+        computed, chunk_seconds = _compute(runner, request, state, out, metric_names, progress)
+        ds = _dataset.dataset(request, state, record)
+        _finish(ds, folder, n_points, computed)
     ds.attrs["sweep_computed_points"] = computed
     ds.attrs["sweep_wall_s"] = time.perf_counter() - started
     ds.attrs["sweep_chunk_s"] = np.asarray(chunk_seconds)
@@ -111,6 +125,7 @@ def _compute(runner, request, state, out, metric_names, progress):
             tic = time.perf_counter()
             start, stop = k * state.chunk_points, min((k + 1) * state.chunk_points, n_points)
             values, status, errors = _run_one(runner, k, points[start:stop])
+            status, errors = _dataset.flag_not_finite(metric_names, values, status, errors)
             state.values[start:stop], state.status[start:stop], state.errors[start:stop] = values, status, errors
             if out is not None and main:
                 store.save_chunk(out / store.chunk_name(k), start, stop, points[start:stop], metric_names,
@@ -142,12 +157,18 @@ def _run_one(runner, k, chunk):
         return runner.one_by_one(chunk)
 
 
-def _finish(ds, out, n_points):
-    """Write ``results.nc`` and warn about the failed members (process 0)."""
+def _finish(ds, folder, n_points, computed):
+    """Write ``results.nc`` unless it holds ``ds`` already and nothing was computed (a finished
+    sweep loads from a read-only folder), and warn about the failed members (process 0)."""
     if jax.process_index() != 0:
         return
-    if out is not None:
-        _dataset.write_results(ds, out / store.RESULTS_FILE)
+    if folder.path is not None:
+        path = folder.path / store.RESULTS_FILE
+        if computed or not _dataset.holds(path, ds):
+            if not folder.writable:
+                why = f"{path.name} must be written (it is missing or differs from the chunk files)"
+                raise store.not_writable(folder.path, folder.problem, why)
+            _dataset.write_results(ds, path)
     failed = json.loads(ds.attrs["failures"])
     if failed:
         warnings.warn(_dataset.failure_report(failed, n_points), RuntimeWarning, stacklevel=3)

@@ -18,6 +18,7 @@ from ..solve import simulate, simulate_one_loop
 AXIS = "d"  # name of the device axis of the mesh
 SUCCESS = int(RESULTS.successful._value)
 RAISED = -1  # status of a member whose solve raised an error (e.g. an equinox runtime check)
+NOT_FINITE = -2  # status of a member whose solve succeeded but a metric is NaN or infinite
 RUNTIME_ERRORS = (eqx.EquinoxRuntimeError, jax.errors.JaxRuntimeError)
 
 

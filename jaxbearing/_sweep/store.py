@@ -5,12 +5,19 @@ process 0, broadcast to the others)."""
 from __future__ import annotations
 
 import dataclasses
+import errno
+import fcntl
 import hashlib
 import io
 import json
 import math
+import os
 import re
+import socket
+import sys
+import tempfile
 import warnings
+from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -19,9 +26,11 @@ import numpy as np
 
 from .. import _files, metrics as _metrics, paths, provenance
 from .arguments import resolved_settings
+from .dataset import flag_not_finite
 
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
+LOCK_FILE = ".sweep.lock"  # flock'ed by the process that writes the folder; holds its pid and host
 FORMAT_VERSION = 2
 SWEPT = "swept"  # the value of a swept parameter in the manifest's model_parameters
 NOT_RUN = -99  # status placeholder of a point not computed yet, never returned
@@ -54,6 +63,104 @@ def manifest(model, request):
     return json.loads(json.dumps(record))
 
 
+class Folder:
+    """The output folder ``out`` (None: no folder) and this process's hold on it: `acquire`
+    (process 0) creates it, checks that it is writable and takes its lock; leaving the ``with``
+    block releases the lock (so does the end of the process, however it ends)."""
+
+    def __init__(self, out):
+        self.path = None if out is None else Path(out)
+        self.problem = None  # why this process may not create files in it (`acquire` checks)
+        self._fd = None
+
+    @property
+    def writable(self) -> bool:
+        return self.problem is None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        if self._fd is not None:
+            os.close(self._fd)  # releases the flock
+            self._fd = None
+
+    def acquire(self, record):
+        """Create the folder, check that it is writable and lock it: one sweep writes a folder
+        at a time. When another process holds the lock, a different sweep (another manifest)
+        is refused at once, the same one waits (a message on stderr) and then resumes from
+        what the other wrote."""
+        if self.path is None:
+            return
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise not_writable(self.path, err.strerror, "it cannot be created") from None
+        self.problem = _write_problem(self.path)
+        lock = self.path / LOCK_FILE
+        self._fd, named = _open_lock(lock, self.writable)
+        if self._fd is None:  # a read-only folder without a lock file: nobody writes it
+            return
+        try:
+            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._wait(record)
+        except OSError as err:  # a file system without locks
+            if err.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS):
+                raise
+            warnings.warn(f"sweep: cannot lock {lock} ({err.strerror}): nothing stops another "
+                          "sweep from writing this folder at the same time.", RuntimeWarning,
+                          stacklevel=4)  # fmt: skip
+        if named:  # who holds it, for the message of a process that waits
+            os.ftruncate(self._fd, 0)
+            os.pwrite(self._fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+
+    def _wait(self, record):
+        """Wait for the lock that another process holds; a different sweep is refused first."""
+        if (self.path / MANIFEST).exists():
+            _check_same(_read_manifest(self.path / MANIFEST, self.path), record, self.path)
+        holder = os.pread(self._fd, 200, 0).decode(errors="replace").strip() or "another process"
+        print(f"sweep: {self.path} is being written by another sweep ({holder}); waiting for it "
+              "to finish, then resuming from what it wrote (Ctrl-C stops).",
+              file=sys.stderr, flush=True)  # fmt: skip
+        fcntl.flock(self._fd, fcntl.LOCK_EX)
+        print(f"sweep: {self.path} is free; going on.", file=sys.stderr, flush=True)
+
+
+def _open_lock(path, writable):
+    """(descriptor of the lock file ``path``, whether it is open for writing): created in a
+    ``writable`` folder; else, or where the file is read-only, opened for reading (`flock`
+    locks it all the same); (None, False) where it does not exist and cannot be created."""
+    if writable:
+        try:
+            return os.open(path, os.O_RDWR | os.O_CREAT, 0o666), True
+        except PermissionError:
+            pass
+    try:
+        return os.open(path, os.O_RDONLY), False
+    except FileNotFoundError:
+        return None, False
+
+
+def _write_problem(out):
+    """None when this process may create files in the folder ``out``, else why not."""
+    try:
+        with tempfile.TemporaryFile(dir=out):
+            return None
+    except OSError as err:
+        if err.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+            return err.strerror
+        raise
+
+
+def not_writable(out, problem, what):
+    """The error for a folder that this process cannot write."""
+    return PermissionError(
+        f"The sweep folder {out} is not writable ({problem}) and {what}: make it writable, or use "
+        "another `out` (a copy of the folder keeps what is done)."
+    )
+
+
 @dataclasses.dataclass
 class State:
     """What is done: ``chunk_points`` per chunk, ``done`` per chunk, and per point ``values``
@@ -66,10 +173,11 @@ class State:
     errors: np.ndarray
 
 
-def restore(out, record, chunk_size, chunk_points, n_devices, points, metric_names) -> State:
-    """Check ``out`` and load the chunks already written (process 0), then share that with the
-    other processes; every process returns the same `State`. Sets ``record["chunk_points"]``
-    (and ``versions_at_start`` when the stored versions differ)."""
+def restore(folder, record, chunk_size, chunk_points, n_devices, points, metric_names) -> State:
+    """Lock and check the `Folder` and load the chunks already written (process 0), then share
+    that with the other processes; every process returns the same `State`. Sets
+    ``record["chunk_points"]`` (and ``versions_at_start`` when the stored versions differ)."""
+    out = folder.path
     n_points = points.shape[0]
     state = State(
         chunk_points=chunk_points,
@@ -81,8 +189,9 @@ def restore(out, record, chunk_size, chunk_points, n_devices, points, metric_nam
     error = None
     if jax.process_index() == 0:
         try:
+            folder.acquire(record)
             state.chunk_points, state.done, stored_versions = _open_out(
-                out, record, chunk_size, chunk_points, n_devices
+                folder, record, chunk_size, chunk_points, n_devices
             )
             if stored_versions is not None and stored_versions != record["versions"]:
                 warnings.warn(_versions_changed(out, stored_versions, record["versions"]),
@@ -97,6 +206,9 @@ def restore(out, record, chunk_size, chunk_points, n_devices, points, metric_nam
     elif error is not None:
         raise error
     record["chunk_points"] = state.chunk_points
+    # chunk files of earlier versions may hold a NaN metric as a success
+    state.status, state.errors = flag_not_finite(metric_names, state.values, state.status,
+                                                 state.errors)  # fmt: skip
     return state
 
 
@@ -118,13 +230,14 @@ def _share(state, error, n_points):
     state.done, state.values, state.status = np.asarray(done) != 0, np.array(values), np.array(status)
 
 
-def _open_out(out, record, chunk_size, chunk_points, n_devices):
-    """Create or check ``out``; returns (points per chunk, done mask, the package versions of
-    the stored manifest or None)."""
+def _open_out(folder, record, chunk_size, chunk_points, n_devices):
+    """Start or check the locked `Folder`; returns (points per chunk, done mask, the package
+    versions of the stored manifest or None). A folder this process cannot write is refused
+    unless the sweep in it is complete (every chunk written)."""
     n_points = int(np.prod(record["shape"]))
+    out = folder.path
     if out is None:
         return chunk_points, np.zeros(math.ceil(n_points / chunk_points), bool), None
-    out.mkdir(parents=True, exist_ok=True)
     path = out / MANIFEST
     chunks = sorted(out.glob("chunk_*.npz"))
     stored_versions = None
@@ -138,17 +251,31 @@ def _open_out(out, record, chunk_size, chunk_points, n_devices):
             f"{out} holds chunk files but no {MANIFEST}: they cannot be matched to this "
             "sweep. Delete them or use another `out` folder."
         )
+    elif not folder.writable:
+        raise not_writable(out, folder.problem, f"holds no {MANIFEST} to load")
     else:
         _files.write_text(path, json.dumps(dict(record, chunk_points=chunk_points), indent=1))
-    for tmp in out.glob(".*.tmp"):  # leftovers of an interrupted write
-        tmp.unlink(missing_ok=True)
     n_chunks = math.ceil(n_points / chunk_points)
     done = np.array([(out / chunk_name(k)).exists() for k in range(n_chunks)], bool)
     extra = [p.name for p in chunks if not re.fullmatch(r"chunk_\d{5,}\.npz", p.name)
              or int(p.stem.split("_")[1]) >= n_chunks]  # fmt: skip
     if extra:
         raise ValueError(f"{out} holds chunk files this sweep does not have: {extra}; delete them.")
+    if not folder.writable and not done.all():
+        raise not_writable(out, folder.problem, f"{int((~done).sum())} of {n_chunks} chunks "
+                            "are still to compute")  # fmt: skip
+    if folder.writable:
+        _remove_leftovers(out)
     return chunk_points, done, stored_versions
+
+
+def _remove_leftovers(out):
+    """Delete the temporary files of this sweep's own files (`_files.atomic_path`) that an
+    interrupted write left. Safe under the folder's lock: the process that holds it is the
+    only sweep writing here, so such a file belongs to a process that has ended."""
+    for name in ("chunk_*.npz", MANIFEST, RESULTS_FILE):
+        for tmp in out.glob(f".{name}.*.tmp"):
+            tmp.unlink(missing_ok=True)
 
 
 def _read_manifest(path, out):

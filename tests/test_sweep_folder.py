@@ -1,0 +1,261 @@
+"""A sweep's folder is safe to share and to read: one writer at a time (a second process on the
+same sweep waits and computes nothing, a different sweep is refused at once, a live process's
+temporary file is never removed), a read-only folder is refused before anything is computed and
+a finished one loads from it; a NaN or infinite metric marks its member failed, with a reason.
+
+Every sweep here has the same model structure, metrics, points per chunk and settings, so its
+kernel compiles once in this process: the paper's case without impact over 0.01 s, two
+clearances, one point a chunk (two chunks).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import threading
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import xarray as xr
+
+import jaxbearing as jb
+from jaxbearing import metrics as M
+from jaxbearing._sweep import kernel
+
+T1 = 0.01
+POINTS = {"bearing.clearance": [20e-6, 40e-6]}
+LATE = 0.005  # [s] a window start that is no stop of the solve unless the sweep adds it
+HIDDEN = 0.002  # [s] the same, inside a function the sweep cannot read it from
+LOAD_LIMIT = 700.0  # [N] between the two members' peak ball loads over 0-0.01 s (633, 889 N)
+
+
+def hidden_window(sol):
+    """The peak ball load from HIDDEN on where the peak from t0 exceeds LOAD_LIMIT, else 0:
+    NaN for the member above it (HIDDEN is not a stop), a finite value for the other."""
+    whole = M.peak_ball_load(sol, t_min=0.0)
+    return jnp.where(whole > LOAD_LIMIT, M.peak_ball_load(sol, t_min=HIDDEN), 0.0)
+
+
+hidden_window.sample_free = True  # reads the solve's records only: members run as one loop
+
+METRICS = {
+    "peak_ball_load": functools.partial(M.peak_ball_load, t_min=0.0),
+    "late_peak": functools.partial(M.peak_ball_load, t_min=LATE),  # the sweep adds the stop
+    "hidden": hidden_window,
+}
+TESTS = os.path.dirname(os.path.abspath(__file__))
+
+pytestmark = pytest.mark.filterwarnings("ignore:sweep. [0-9]+ of [0-9]+ members failed:RuntimeWarning")
+
+
+def run(params=POINTS, **kwargs):
+    options = dict(metrics=METRICS, t1=T1, chunk_size=1, progress=False)
+    return jb.sweep(jb.cases.xu2014(impact=False), params, **{**options, **kwargs})
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """A finished sweep: (its Dataset, its folder)."""
+    out = tmp_path_factory.mktemp("finished")
+    return run(out=out), out
+
+
+def _can_write(folder) -> bool:
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
+
+
+@contextlib.contextmanager
+def read_only(folder):
+    """``folder`` read-only for this process: its write bits cleared, and where that does not
+    stop this process (root), a read-only bind mount over it; skips the test where neither
+    works."""
+    modes = {p: p.stat().st_mode for p in [folder, *folder.iterdir()]}
+    for path, mode in modes.items():
+        path.chmod(mode & ~0o222)
+    mounted = False
+    try:
+        if _can_write(folder):
+            mounted = subprocess.run(["mount", "--bind", folder, folder], capture_output=True).returncode == 0
+            remounted = mounted and subprocess.run(
+                ["mount", "-o", "remount,bind,ro", folder], capture_output=True
+            ).returncode == 0
+            if not remounted or _can_write(folder):
+                pytest.skip("cannot make a folder read-only for this process")
+        yield folder
+    finally:
+        if mounted:
+            subprocess.run(["umount", folder], check=True)
+        for path, mode in modes.items():
+            path.chmod(mode)
+
+
+@pytest.fixture
+def no_computing(monkeypatch):
+    """Fail the test if a chunk is computed."""
+
+    def refuse(self, points):
+        raise AssertionError("a chunk was computed")
+
+    monkeypatch.setattr(kernel.ChunkRunner, "__call__", refuse)
+
+
+def test_a_nan_or_infinite_metric_marks_its_member_failed_with_a_reason(finished):
+    ds, out = finished
+    # member 1's hidden window starts at a time the solve did not stop at: NaN, failed
+    np.testing.assert_array_equal(ds.status.values, [0, kernel.NOT_FINITE])
+    np.testing.assert_array_equal(ds.failed.values, [False, True])
+    assert ds.hidden.values[0] == 0.0 and np.isnan(ds.hidden.values[1])
+    assert np.isfinite(ds.peak_ball_load.values).all()  # its other metrics are kept
+    assert json.loads(ds.attrs["status_codes"])[str(kernel.NOT_FINITE)] == "metric_not_finite"
+    (failure,) = json.loads(ds.attrs["failures"])
+    assert failure["index"] == 1 and failure["result"] == "metric_not_finite"
+    assert failure["point"] == {"bearing.clearance": 40e-6}
+    assert failure["message"].startswith("hidden = nan: a metric is NaN when its window starts or ends "
+                                         "at a time the solve did not stop at (add that time to "
+                                         "SolveOptions(window_edges=...))")
+    # recorded in the chunk file and results.nc: a reload reports the same
+    with xr.open_dataset(out / "results.nc") as saved:
+        np.testing.assert_array_equal(saved.status.values, ds.status.values)
+        assert saved.attrs["failures"] == ds.attrs["failures"]
+    with np.load(out / "chunk_00001.npz") as chunk:
+        assert chunk["status"].tolist() == [kernel.NOT_FINITE]
+
+
+def test_the_failure_report_names_the_metric():
+    with pytest.warns(RuntimeWarning, match=r"sweep: 1 of 1 members failed.*\n  point 0 "
+                      r"\(bearing\.clearance = 4e-05\): metric_not_finite: hidden = nan: a metric is NaN"):
+        run({"bearing.clearance": [40e-6]})
+
+
+def test_a_window_edge_known_before_the_solve_becomes_a_stop(finished):
+    """A metric's t_min given as a number (functools.partial) is added to the members'
+    window_edges, so the metric is exact: the value of a single run asked for that stop."""
+    ds, _ = finished
+    assert json.loads(ds.attrs["simulate_kwargs"])["window_edges"] == [LATE]
+    for clearance, value in zip(POINTS["bearing.clearance"], ds.late_peak.values):
+        model = jb.cases.xu2014(impact=False, clearance=clearance)
+        sol = jb.simulate_one_loop(model, T1, options=jb.SolveOptions(window_edges=(LATE,)))
+        # the same integrator and stops, but another compiled program (vmapped): rounding, which
+        # the step control may turn into other steps within the solver's relative tolerance
+        np.testing.assert_allclose(value, M.peak_ball_load(sol, t_min=LATE), rtol=1e-6)
+
+
+def test_a_read_only_folder_is_refused_before_computing(tmp_path, no_computing):
+    with read_only(tmp_path), pytest.raises(
+        PermissionError, match=rf"The sweep folder {tmp_path} is not writable \(.*\) and holds no "
+                               r"manifest\.json to load: make it writable, or use another `out`"):
+        run(out=tmp_path)
+
+
+def test_an_unfinished_sweep_in_a_read_only_folder_is_refused_before_computing(finished, tmp_path, no_computing):
+    _, out = finished
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("manifest.json", "chunk_00000.npz"):
+        (copy / name).write_bytes((out / name).read_bytes())
+    with read_only(copy), pytest.raises(
+        PermissionError, match=rf"The sweep folder {copy} is not writable \(.*\) and 1 of 2 chunks "
+                               r"are still to compute"):
+        run(out=copy)
+
+
+def test_a_finished_sweep_loads_from_a_read_only_folder(finished, no_computing):
+    ds, out = finished
+    stamp = (out / "results.nc").stat().st_mtime_ns
+    with read_only(out):
+        again = run(out=out)
+    assert again.attrs["sweep_computed_points"] == 0
+    assert (out / "results.nc").stat().st_mtime_ns == stamp  # not rewritten
+    xr.testing.assert_identical(again.drop_attrs(), ds.drop_attrs())
+
+
+def test_a_missing_results_file_in_a_read_only_folder_is_named(finished, tmp_path, no_computing):
+    _, out = finished
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("manifest.json", "chunk_00000.npz", "chunk_00001.npz"):
+        (copy / name).write_bytes((out / name).read_bytes())
+    with read_only(copy), pytest.raises(
+        PermissionError, match=rf"The sweep folder {copy} is not writable \(.*\) and results\.nc must "
+                               r"be written \(it is missing"):
+        run(out=copy)
+
+
+def start_process(body: str):
+    """A python process (CPU) that imports this file as ``t`` and runs ``body``."""
+    preamble = f"""
+import pathlib, sys, time
+sys.path.insert(0, {TESTS!r})
+import jax
+jax.config.update("jax_enable_x64", True)
+import test_sweep_folder as t
+"""
+    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    return subprocess.Popen([sys.executable, "-c", preamble + textwrap.dedent(body)], env=env,
+                            text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+
+def test_two_processes_on_one_folder_compute_each_chunk_once(finished, tmp_path, capfd):
+    """The other process runs the sweep and stalls while writing its first chunk (a slow disk:
+    the temporary file is written, not yet moved into place). Here, a different sweep in that
+    folder is refused at once; the same sweep waits for the other to finish, leaves its
+    temporary file alone and then loads what it wrote, computing nothing."""
+    reference, _ = finished
+    out = tmp_path / "shared"
+    job = start_process(
+        f"""
+        from jaxbearing import _files
+        write_bytes = _files.write_bytes
+
+        def slow(path, data):  # the first chunk's file waits for `release` before it is moved
+            if path.name != "chunk_00000.npz":
+                return write_bytes(path, data)
+            with _files.atomic_path(path) as tmp:
+                tmp.write_bytes(data)
+                print("WRITING", flush=True)
+                deadline = time.monotonic() + 300.0
+                while not (path.parent / "release").exists() and time.monotonic() < deadline:
+                    time.sleep(0.01)
+
+        _files.write_bytes = slow
+        t.run(out=pathlib.Path({str(out)!r}))
+        print("DONE", flush=True)
+        """
+    )
+    try:
+        assert job.stdout.readline().strip() == "WRITING", job.communicate()[1][-3000:]
+        tmp = list(out.glob(".chunk_00000.npz.*.tmp"))
+        assert len(tmp) == 1
+        with pytest.raises(ValueError, match="was started with other arguments: parameters, shape differ"):
+            run({"bearing.clearance": [30e-6]}, out=out)  # at once: the other process still stalls
+        assert job.poll() is None and tmp[0].exists()
+        # the other process goes on 5 s later, while this one waits for the folder
+        threading.Timer(5.0, (out / "release").touch).start()
+        ds = run(out=out)
+        assert job.wait(timeout=300) == 0, job.stderr.read()[-3000:]
+        assert job.stdout.read().strip() == "DONE"
+    finally:
+        if job.poll() is None:
+            job.kill()
+        job.communicate()
+    err = capfd.readouterr().err
+    assert f"sweep: {out} is being written by another sweep (pid {job.pid} on " in err
+    assert "waiting for it to finish, then resuming from what it wrote" in err
+    assert ds.attrs["sweep_computed_points"] == 0
+    assert not list(out.glob(".*.tmp"))
+    with xr.open_dataset(out / "results.nc") as theirs:
+        xr.testing.assert_identical(ds.drop_attrs(), theirs.load().drop_attrs())
+    # the other process's own compilation: rounding may differ (see test_sweep's METRIC_RTOL)
+    for name in METRICS:
+        np.testing.assert_allclose(ds[name].values, reference[name].values, rtol=1e-4)
