@@ -41,6 +41,9 @@ run time.
 A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
 is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
 each member's model; `jaxbearing.life.metric` makes one.
+
+`converged` says whether a metric is a result at all: it simulates the model at several solver
+tolerances and compares the metric's values (docs/metrics.md).
 """
 
 from __future__ import annotations
