@@ -10,7 +10,7 @@ metric has the same value whatever ``ts`` the simulation was asked for. A window
 stops: t0, the model's ``window_start`` and t1 always are, and ``SolveOptions.window_edges``
 adds others. An edge
 that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in
-Python, makes the metric NaN.
+Python, makes the metric NaN with a warning at run time (in `jaxbearing.sweep` its member fails).
 
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
 differentiation transforms:
@@ -135,6 +135,13 @@ def _check_not_empty(filled, t_min, t_max, first, last, what):
         if not bool(filled):
             raise ValueError(_empty_window(t_min, t_max, first, last, what) + ".")
         return
+    warn = functools.partial(_warn_empty_window, what=what)
+    _warn_at_run_time(~filled, warn, t_min, t_max, first, last)
+
+
+def _warn_at_run_time(bad, warn, t_min, t_max, first, last):
+    """Traced: call ``warn(t_min, t_max, first, last)`` [s] at run time where ``bad`` holds for
+    any member of a batch."""
     # the callback's operands unbatched (the latest window start and the shortest span of a
     # batch): with batched ones vmap unrolls the callback into one a member, and the compiled
     # program grew with the batch (docs/performance.md, 2026-11-26); no derivative: the warning
@@ -143,9 +150,8 @@ def _check_not_empty(filled, t_min, t_max, first, last, what):
     lo = latest(-jnp.inf if t_min is None else t_min)
     hi = -latest(-jnp.asarray(jnp.inf if t_max is None else t_max))
     bounds = (lo, hi, -latest(-jnp.asarray(first)), -latest(-jnp.asarray(last)))
-    warn = functools.partial(_warn_empty_window, what=what)
     jax.lax.cond(
-        eqxi.nonbatchable(eqxi.unvmap_any(~filled)),
+        eqxi.nonbatchable(eqxi.unvmap_any(bad)),
         lambda: jax.debug.callback(warn, *bounds),
         lambda: None,
     )
@@ -163,6 +169,15 @@ def _empty_window(t_min, t_max, first, last, what):
 
 def _warn_empty_window(t_min, t_max, first, last, *, what):
     warnings.warn(f"{_empty_window(t_min, t_max, first, last, what)}; the metric is NaN.")
+
+
+def _warn_off_stops(t_min, t_max, first, last, *, name):
+    warnings.warn(
+        f"the window t_min = {float(t_min):.6g} s to t_max = {float(t_max):.6g} s needs its edges "
+        f"to be ends of the solution's {name} (or outside the solved span [{float(first):.6g}, "
+        f"{float(last):.6g}] s): pass the edges to simulate, as "
+        "options=jaxbearing.SolveOptions(window_edges=(...)); the metric is NaN."
+    )
 
 
 EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts as that end
@@ -187,7 +202,7 @@ def intervals_inside(stats, t_min, t_max, name: str):
     """Which intervals of ``stats`` (fields t_start, t_end, valid: `SegmentStats`,
     `FatigueStats`) lie in [t_min, t_max] [s], and whether both edges are interval ends (or
     outside the solved span): a ValueError naming the ``name`` when they are not and that is
-    known in Python; traced, the second value is False."""
+    known in Python; traced, the second value is False and a warning says so at run time."""
     if t_min is None:
         t_min = -jnp.inf
     start_is = 'the window\'s start, "model" (the model\'s window_start) or None (from t0)'
@@ -213,6 +228,9 @@ def intervals_inside(stats, t_min, t_max, name: str):
             f"solution's {name} (not: {', '.join(map(str, missing))} s): pass the edges to "
             f"simulate, as simulate(..., options=jaxbearing.SolveOptions(window_edges={missing}))."
         )
+    if not is_concrete(ok):
+        warn = functools.partial(_warn_off_stops, name=name)
+        _warn_at_run_time(~ok, warn, t_min, t_max, start, end)
     inside = (
         stats.valid
         & (stats.t_start >= t_min - EDGE_TOLERANCE)
@@ -454,5 +472,8 @@ def converged(
         values.append(float(metric(sol, model) if isinstance(metric, WithModel) else metric(sol)))
     v = np.asarray(values)
     scale = np.abs(v).max()
-    spread = np.nan if not np.isfinite(v).all() else 0.0 if scale == 0 else float((v.max() - v.min()) / scale)
+    if not np.isfinite(v).all():
+        spread = np.nan
+    else:
+        spread = 0.0 if scale == 0 else float((v.max() - v.min()) / scale)
     return Convergence(rtols, tuple(values), spread, bool(spread <= tolerance))
