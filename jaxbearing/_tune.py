@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from . import paths as _paths
+from . import _checks, paths as _paths
 from .solve import simulate
 
 
@@ -43,6 +43,7 @@ def _values(model, names: Sequence[str], purpose: str) -> jax.Array:
     if isinstance(names, str) or not names:
         raise ValueError(f"names must be a non-empty list of parameter paths; got {names!r}.")
     _paths.check_distinct(model, names)
+    model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at is a value too
     return jnp.stack([jnp.asarray(_paths.scalar_leaf(model, n, purpose), jnp.float64) for n in names])
 
 

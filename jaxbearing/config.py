@@ -1,7 +1,7 @@
 """Configuration files: parameter overrides of the paper's case for ``jaxbearing xu2014 --config``.
 
 A TOML file (read with the standard library's `tomllib`: data only, nothing in it is evaluated
-or imported) with up to three tables; every key is optional and overrides one keyword argument
+or imported) with up to four tables; every key is optional and overrides one keyword argument
 of `jaxbearing.cases.xu2014`:
 
     # overrides.toml: all numbers in SI units (m, s, N, rad/s); unit strings are not accepted
@@ -18,6 +18,9 @@ of `jaxbearing.cases.xu2014`:
 
     [crank]
     speed = 62.83            # crank speed [rad/s]                     -> crank_speed
+
+    [metrics]
+    window_start = 0.04      # the metrics' default window starts [s]  -> window_start
 
 Rules, each broken one raising a `ConfigError` that names the file and the key:
 
@@ -82,6 +85,7 @@ XU2014: dict[str, dict[str, Number | Choice]] = {
         "contact_on": Number("contact_on", "s"),
     },
     "crank": {"speed": Number("crank_speed", "rad/s")},
+    "metrics": {"window_start": Number("window_start", "s")},
 }
 """The schema: table -> key -> what it overrides (see the module doc)."""
 

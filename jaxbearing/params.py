@@ -21,6 +21,13 @@ from .laws import hertz
 CageMode = Literal["kinematic", "constant"]
 BallForce = Literal["paper", "smooth"]
 
+MAX_CLEARANCE_FRACTION = 0.1  # largest diametral clearance, as a fraction of the ball diameter
+# Catalogue bearings: the internal geometry from_geometry needs (pitch and ball diameter [m],
+# balls, groove curvature ratios f = r/D). SKF 98205: paper Table 2; the groove ratios
+# reproduce the paper's K_i, K_o (docs/model.md, 'Groove curvature ratios').
+CATALOGUE = {
+    "98205": dict(pitch_diameter=37.9e-3, ball_diameter=8.7e-3, n_balls=8, groove_inner=0.5219, groove_outer=0.5194),
+}
 BALL_EXPONENT = 1.5
 ROLLER_EXPONENT = 10.0 / 9.0
 
@@ -29,7 +36,8 @@ class BallBearing(eqx.Module):
     """A radial rolling bearing seen by the planar model (paper Sect. 2.1).
 
     Fields:
-        clearance: P_d, diametral clearance [m] (Eq. 12 subtracts P_d/2 on each side).
+        clearance: P_d, diametral clearance [m] (Eq. 12 subtracts P_d/2 on each side); at most
+            `MAX_CLEARANCE_FRACTION` of the ball diameter (catalogue clearances are below 1 %).
         stiffness: K_b, ball load–deflection constant, inner and outer contact in series
             [N/m^exponent] (Eq. 11).
         damping: C_b, per-ball damping coefficient [N s/m] (Eq. 9).
@@ -148,6 +156,21 @@ class BallBearing(eqx.Module):
             **kwargs,
         )
 
+    @classmethod
+    def from_catalogue(cls, designation: str, *, clearance=0.04e-3, damping=300.0, **kwargs) -> BallBearing:
+        """A catalogue bearing by its designation (the keys of `CATALOGUE`: "98205", the paper's
+        SKF 98205) with the given diametral clearance P_d [m] and per-ball damping C_b [N s/m]
+        (defaults: the paper's 40 um and 300 N s/m); other keyword arguments go to
+        `from_geometry` (E, nu, cage, ball_force, ...)."""
+        if designation not in CATALOGUE:
+            raise ValueError(f"designation must be one of {sorted(CATALOGUE)}; got {designation!r}.")
+        return cls.from_geometry(**CATALOGUE[designation], clearance=clearance, damping=damping, **kwargs)
+
+    @property
+    def ball_diameter(self) -> jax.Array:
+        """D = (d_o - d_i) / 2 [m]."""
+        return 0.5 * (self.outer_race_diameter - self.inner_race_diameter)
+
     def violations(self):
         _checks.require_scalars(
             self, ("clearance", "stiffness", "damping", "inner_race_diameter", "outer_race_diameter", "damping_ramp")
@@ -163,6 +186,12 @@ class BallBearing(eqx.Module):
                 self.outer_race_diameter,
             ),
             _checks.positive("damping ramp", self.damping_ramp, "m"),
+            (
+                self.clearance > MAX_CLEARANCE_FRACTION * self.ball_diameter,
+                f"bearing clearance must be at most {MAX_CLEARANCE_FRACTION} of the ball diameter "
+                "(d_o - d_i) / 2, far above any catalogue clearance [m]",
+                self.clearance,
+            ),
         ]
 
     def __check_init__(self):

@@ -103,6 +103,12 @@ BAD_INPUTS = [
     # bearing geometry
     (lambda: bearing(clearance=-1e-6), r"bearing clearance must be zero or positive \[m\]; got -1e-06\."),
     (lambda: jb.cases.xu2014(clearance=-1e-5), r"bearing clearance must be zero or positive \[m\]; got -1e-05\."),
+    (lambda: jb.cases.xu2014(clearance=0.5),
+     r"bearing clearance must be at most 0\.1 of the ball diameter \(d_o - d_i\) / 2, far above any catalogue "
+     r"clearance \[m\]; got 0\.5\."),
+    (lambda: jb.simulate(eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(), 2e-3), 0.01),
+     r"bearing clearance must be at most 0\.1 of the ball diameter .*; got 0\.002\."),
+    (lambda: jb.BallBearing.from_catalogue("6205"), r"designation must be one of \['98205'\]; got '6205'\."),
     (lambda: bearing(n_balls=2), r"n_balls must be an integer of at least 3; got 2\."),
     (lambda: from_geometry(n_balls=2), r"n_balls must be an integer of at least 3; got 2\."),
     (lambda: from_geometry(ball_diameter=40e-3), r"pitch_diameter must exceed ball_diameter \[m\]; got 0\.0379\."),
@@ -126,10 +132,28 @@ BAD_INPUTS = [
     (lambda: jb.Impact(1e10, 0.9, friction_v0=1e-3, friction_v1=1e-4),
      r"friction_v1 must exceed friction_v0 \[m/s\]; got 0\.0001\."),
     # initial state
-    (lambda: pendulum(q0=(0.4, 0.0, 0.0)),
-     r"initial positions q0 violate the joints at t0 by more than 1e-08 \(m or rad\): make q0 consistent with the joints and drivers at t0; got 0\.1\."),
-    (lambda: pendulum(speed=2.0),
-     r"initial velocities qd0 violate the joints at t0 by more than 1e-06 \(m/s or rad/s\): make qd0 consistent with the joints and drivers at t0; got 2\."),
+    (lambda: jb.simulate(pendulum(q0=(0.4, 0.0, 0.0)), 0.01),
+     r"initial positions q0 violate joint 0 \(Revolute, ground–body0\) at t0 by more than 1e-08 \(m or rad\); "
+     r"model\.assemble\(q_guess, qd_guess, t0\) finds a consistent state; got 0\.1\."),
+    (lambda: jb.simulate(pendulum(speed=2.0), 0.01),
+     r"initial velocities qd0 violate joint 1 \(Driver, body0\) at t0 by more than 1e-06 \(m/s or rad/s\); "
+     r"model\.assemble\(q_guess, qd_guess, t0\) finds a consistent state; got 2\."),
+    # assembly: a guess that cannot close, redundant joints, a pin beside a bearing
+    (lambda: jb.Mechanism(jb.cases.four_bar().bodies, jb.cases.four_bar().joints[:3]
+                          + (Revolute(GROUND, (0.9, 0.0), 2, (-0.125, 0.0)),), jb.cases.four_bar().q0,
+                          forces=jb.cases.four_bar().forces, body_names=("crank", "coupler", "rocker")).assemble(),
+     r"assembly could not close joint \d \(Revolute, \w+–\w+\): its residual is [\d.e+-]+ \(m or rad\) after "
+     r"Gauss–Newton steps\. Start q_guess nearer an assembled position, or check the joints' points and the "
+     r"links' lengths \(they may not close at all\)\."),
+    (lambda: Mechanism([Body(1.0, 0.1)] * 2, [Revolute(GROUND, (0.0, 0.0), 0, (-0.5, 0.0))]
+                       + [Revolute(0, (0.5, 0.0), 1, (-0.5, 0.0))] * 2, [0.4, 0.0, 0.0, 1.4, 0.0, 0.0]).assemble(),
+     r"redundant constraints: joint 1 \(Revolute, body0–body1\), joint 2 \(Revolute, body0–body1\) constrain "
+     r"the same motion \(Phi_q is rank-deficient at the assembly\)\. Remove one of them\."),
+    (lambda: jb.Mechanism(jb.cases.four_bar().bodies, jb.cases.four_bar().joints
+                          + (Revolute(2, (0.125, 0.0), 1, (0.14, 0.0)),), jb.cases.four_bar().q0,
+                          forces=jb.cases.four_bar().forces, body_names=("crank", "coupler", "rocker")),
+     r"joint 4 \(Revolute, rocker–coupler\) joins the two bodies of force 0 \(BearingJoint\) at its race centres: "
+     r"the ideal pin would carry the load and the bearing none\. Remove the Revolute: the BearingJoint is the joint\."),
     # time span
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.0),
      r"t1 must be greater than t0 = 0\.0 s; got t1 = 0\.0 s\."),
@@ -330,7 +354,7 @@ def test_initial_state_is_checked_at_t0():
     """The crank's driver turns it at a fixed speed from t = 0: q0 is consistent at t0 = 0, not
     at t0 = 5 ms, and a run started there would drift by the crank's turn since t = 0."""
     model = jb.cases.xu2014(impact=False)
-    with pytest.raises(Exception, match="initial positions q0 violate the joints at t0"):
+    with pytest.raises(Exception, match=r"initial positions q0 violate joint 1 \(Driver, crank\) at t0"):
         jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), options=jb.SolveOptions(t0=0.005))
 
 

@@ -1,6 +1,8 @@
 """Ready-made mechanisms: the paper's impact slider–crank (`xu2014`, with its Table 5 and figure
-window) and a rotor hung in a bearing (`rotor`)."""
+window), a rotor hung in a bearing (`rotor`) and a crank–rocker four-bar with a bearing at its
+coupler–rocker joint (`four_bar`)."""
 
+from ._four_bar import four_bar
 from ._rotor import rotor
 from ._xu2014 import (
     FIGURE_WINDOW,
@@ -23,6 +25,7 @@ __all__ = [
     "TABLE5",
     "TABLE5_TIMES",
     "TARGET",
+    "four_bar",
     "WINDOW_START",
     "rotor",
     "skf98205",

@@ -24,13 +24,13 @@ from ..multibody import (
     SpringDamper,
     Translational,
 )
-from ..params import BallBearing, Impact
+from ..params import CATALOGUE, BallBearing, Impact
 
 CRANK_LENGTH = 0.050  # [m]
 ROD_LENGTH = 0.120  # [m]
 SPRING_FREE_LENGTH = 0.1  # [m], any positive value: the spring is unstressed at the start
-GROOVE_INNER = 0.5219  # raceway groove curvature ratios f = r/D that reproduce the paper's K_i, K_o
-GROOVE_OUTER = 0.5194
+# raceway groove curvature ratios f = r/D that reproduce the paper's K_i, K_o
+GROOVE_INNER, GROOVE_OUTER = CATALOGUE["98205"]["groove_inner"], CATALOGUE["98205"]["groove_outer"]
 SLIDER = 2  # body index of the slider
 TARGET = 3  # body index of the target
 WINDOW_START = 0.04  # [s] the metrics' default window starts after the rod fell onto the race and rang
@@ -57,19 +57,9 @@ def skf98205(
 ) -> BallBearing:
     """SKF 98205 (paper Table 2): d_m 37.9 mm, D 8.7 mm, 8 balls, E 207 GPa, nu 0.3, and the
     groove curvature ratios f_i = 0.5219, f_o = 0.5194 that reproduce the paper's K_i, K_o
-    (docs/model.md, 'Groove curvature ratios')."""
-    return BallBearing.from_geometry(
-        pitch_diameter=37.9e-3,
-        ball_diameter=8.7e-3,
-        n_balls=8,
-        groove_inner=GROOVE_INNER,
-        groove_outer=GROOVE_OUTER,
-        clearance=clearance,
-        damping=damping,
-        youngs_modulus=207e9,
-        poisson_ratio=0.3,
-        cage=cage,
-        ball_force=ball_force,
+    (docs/model.md, 'Groove curvature ratios'): `BallBearing.from_catalogue("98205")`."""
+    return BallBearing.from_catalogue(
+        "98205", clearance=clearance, damping=damping, cage=cage, ball_force=ball_force
     )
 
 

@@ -22,11 +22,12 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .. import _checks
 from ..params import BallBearing, Impact
-from .bodies import Body
-from .constraints import AbstractJoint, JacobianRows
+from .bodies import GROUND, Body
+from .constraints import AbstractJoint, JacobianRows, Revolute
 from .forces import AbstractForceElement, BearingJoint, CircleContact, ForceInputs, Gravity
 
 POSITION_TOLERANCE = 1e-8  # [m or rad] allowed violation of Phi(q0, 0) = 0
@@ -43,7 +44,9 @@ class Mechanism(eqx.Module):
         contacts: impact contacts (`CircleContact`), whose approach speeds are captured per
             contact by `simulate`.
         gravity: a `Gravity` or None.
-        q0, qd0: initial coordinates [m, rad] and velocities [m/s, rad/s], (3 n_bodies,).
+        q0, qd0: initial coordinates [m, rad] and velocities [m/s, rad/s], (3 n_bodies,)
+            (qd0 default: at rest). A solve needs them to satisfy the joints and drivers at its
+            t0; `assemble` finds such a state from a rough guess.
         baumgarte_alpha, baumgarte_beta: Baumgarte stabilisation parameters [1/s] (Eq. 36).
         body_names: labels of the bodies, in order (static).
         window_start: where the default window of `jaxbearing.metrics` and `jaxbearing.life`
@@ -68,7 +71,7 @@ class Mechanism(eqx.Module):
         bodies,
         joints,
         q0,
-        qd0,
+        qd0=None,
         *,
         forces=(),
         contacts=(),
@@ -84,6 +87,8 @@ class Mechanism(eqx.Module):
         self.contacts = tuple(contacts)
         self.gravity = gravity
         self.q0 = _checks.as_float(q0, "initial positions q0", "m, rad")
+        if qd0 is None:
+            qd0 = jnp.zeros_like(self.q0)
         self.qd0 = _checks.as_float(qd0, "initial velocities qd0", "m/s, rad/s")
         self.baumgarte_alpha = _checks.as_float(baumgarte_alpha, "Baumgarte alpha", "1/s")
         self.baumgarte_beta = _checks.as_float(baumgarte_beta, "Baumgarte beta", "1/s")
@@ -114,6 +119,7 @@ class Mechanism(eqx.Module):
             raise ValueError(
                 f"{self.n_constraints} constraint equations over-determine {n} coordinates."
             )
+        _refuse_pins_at_bearings(self)
 
     # -- structure -------------------------------------------------------------------------
     @property
@@ -277,36 +283,51 @@ class Mechanism(eqx.Module):
         gaps = [c.gap(q, qd)[:2] for c in self.contacts]
         return jnp.stack([g[0] for g in gaps]), jnp.stack([g[1] for g in gaps])
 
-    # -- validation --------------------------------------------------------------------------
-    def violations(self, t0=0.0):
-        """Every rule on every parameter of the model, plus consistency of the initial state at
-        ``t0`` [s] (joints and drivers satisfied, no contact switched on while its surfaces
-        overlap); first that every floating leaf is finite (named by its dotted path)."""
+    # -- assembly and validation ----------------------------------------------------------------
+    def assemble(self, q_guess=None, qd_guess=None, t0=0.0) -> Mechanism:
+        """This mechanism with ``q0``, ``qd0`` that satisfy its joints and drivers at ``t0`` [s],
+        each bearing centred, nearest ``q_guess`` [m, rad] and ``qd_guess`` [m/s, rad/s]
+        (defaults: its own ``q0``, ``qd0``). Newton's method; differentiable in the parameters
+        (a joint point that moves moves the state) by the implicit function theorem. A
+        `ValueError` names a joint it cannot close, or redundant joints
+        (`jaxbearing.multibody.assembly`)."""
+        from .assembly import assemble
+
+        return assemble(self, q_guess, qd_guess, t0)
+
+    def parameter_violations(self):
+        """Every rule on every parameter of the model; first that every floating leaf is finite
+        (named by its dotted path)."""
         rules = _checks.finite_leaves(self)
         parts = self.bodies + self.forces + self.contacts
         if self.gravity is not None:
             parts += (self.gravity,)
         for part in parts:
             rules.extend(part.violations())
+        rules.append(_checks.positive("Baumgarte alpha", self.baumgarte_alpha, "1/s"))
+        rules.append(_checks.positive("Baumgarte beta", self.baumgarte_beta, "1/s"))
+        return rules
+
+    def violations(self, t0=0.0):
+        """`parameter_violations` and the consistency of the initial state at ``t0`` [s]: every
+        joint and driver satisfied (each joint named), no contact switched on while its surfaces
+        overlap."""
+        rules = self.parameter_violations()
         t0 = jnp.asarray(t0, self.q0.dtype)
-        if self.joints:
-            pos = jnp.max(jnp.abs(self.constraints(self.q0, t0)))
-            vel = jnp.max(jnp.abs(self.constraint_velocity(self.q0, self.qd0, t0)))
+        for i, joint in enumerate(self.joints):
+            pos = jnp.max(jnp.abs(joint(self.q0, t0)))
+            rate = joint.jacobian(self.q0, t0) @ self.qd0 + joint.time_derivative(self.q0, t0)
+            label = self.joint_label(i)
+            fix = "; model.assemble(q_guess, qd_guess, t0) finds a consistent state"
             rules.append(
-                (
-                    pos > POSITION_TOLERANCE,
-                    f"initial positions q0 violate the joints at t0 by more than {POSITION_TOLERANCE} "
-                    "(m or rad): make q0 consistent with the joints and drivers at t0",
-                    pos,
-                )
+                (pos > POSITION_TOLERANCE,
+                 f"initial positions q0 violate {label} at t0 by more than {POSITION_TOLERANCE} "
+                 f"(m or rad){fix}", pos)
             )
             rules.append(
-                (
-                    vel > VELOCITY_TOLERANCE,
-                    f"initial velocities qd0 violate the joints at t0 by more than {VELOCITY_TOLERANCE} "
-                    "(m/s or rad/s): make qd0 consistent with the joints and drivers at t0",
-                    vel,
-                )
+                (jnp.max(jnp.abs(rate)) > VELOCITY_TOLERANCE,
+                 f"initial velocities qd0 violate {label} at t0 by more than {VELOCITY_TOLERANCE} "
+                 f"(m/s or rad/s){fix}", jnp.max(jnp.abs(rate)))
             )
         for i, contact in enumerate(self.contacts):
             overlap = contact.gap(self.q0, self.qd0)[0]
@@ -318,12 +339,39 @@ class Mechanism(eqx.Module):
                     overlap,
                 )
             )
-        rules.append(_checks.positive("Baumgarte alpha", self.baumgarte_alpha, "1/s"))
-        rules.append(_checks.positive("Baumgarte beta", self.baumgarte_beta, "1/s"))
         return rules
 
+    def joint_label(self, i: int) -> str:
+        """``"joint i (Type, body–body)"`` by the bodies' names."""
+        joint = self.joints[i]
+        bodies = (joint.body_i, joint.body_j) if isinstance(joint, Revolute) else (joint.body,)
+        names = "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
+        return f"joint {i} ({type(joint).__name__}, {names})"
+
     def __check_init__(self):
-        _checks.raise_if_concrete(self.violations())
+        _checks.raise_if_concrete(self.parameter_violations())
+
+
+def _refuse_pins_at_bearings(model) -> None:
+    """A `ValueError` for an ideal `Revolute` that joins a `BearingJoint`'s two bodies at its
+    race centres: it would carry the load and the bearing none (checked where the points are
+    concrete; `Mechanism.assemble` refuses any redundant set)."""
+    for f, force in enumerate(model.forces):
+        if not isinstance(force, BearingJoint):
+            continue
+        races = {force.outer_body: force.outer_point, force.inner_body: force.inner_point}
+        for i, joint in enumerate(model.joints):
+            if not isinstance(joint, Revolute) or {joint.body_i, joint.body_j} != set(races):
+                continue
+            points = (joint.point_i, races[joint.body_i], joint.point_j, races[joint.body_j])
+            if not _checks.is_concrete(*points):
+                continue
+            if np.allclose(points[0], points[1], atol=1e-9) and np.allclose(points[2], points[3], atol=1e-9):
+                raise ValueError(
+                    f"{model.joint_label(i)} joins the two bodies of force {f} (BearingJoint) at its "
+                    "race centres: the ideal pin would carry the load and the bearing none. Remove "
+                    "the Revolute: the BearingJoint is the joint."
+                )
 
 
 def solve_spd(a, b) -> jax.Array:
