@@ -138,6 +138,6 @@ def _loads(cos, sin, eccentricity, eccentricity_rate, bearing, engaged):
 
 
 def resultant(loads, cage_angle) -> jax.Array:
-    """F = sum_r F_r [cos phi_r, sin phi_r] [N], the force on the outer-race body (Eq. 28)."""
+    """``F = sum_r F_r (cos phi_r, sin phi_r)`` [N], the force on the outer-race body (Eq. 28)."""
     cos, sin = ball_directions(cage_angle, loads.shape[-1])
     return jnp.stack([jnp.sum(loads * cos, -1), jnp.sum(loads * sin, -1)], -1)
