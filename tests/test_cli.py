@@ -236,6 +236,23 @@ def test_summary_peaks_come_from_the_solution_not_the_samples():
     assert early["peak_impact_force_N"] == 0.0
 
 
+def test_figures_draw_each_curve_s_envelope_with_every_extreme():
+    """A 200 001-sample curve with 1-sample spikes is drawn from about 2 x 2000 points that
+    hold every run's minimum and maximum: the spikes, the global extremes and the ends."""
+    from jaxbearing.report._figures import envelope
+
+    t = np.linspace(0.0, 0.2, 200_001)
+    y = np.sin(2 * np.pi * 10 * t)
+    spikes = [1234, 99_999, 150_001]
+    y[spikes] = [5.0, -7.0, 3.0]
+    te, ye = envelope(t, y, 2000)
+    assert te.size <= 4000 and np.all(np.diff(te) > 0)
+    assert set(t[spikes]) <= set(te)
+    assert ye.max() == 5.0 and ye.min() == -7.0
+    small = envelope(t[:100], y[:100], 2000)
+    assert small[0].size == 100
+
+
 def test_write_csv_stride_and_atomic(tmp_path):
     ts = np.linspace(0.0, 1.0, 11)
     path = report.write_csv(tmp_path / "x.csv", fake_solution(ts), stride=3)
@@ -456,8 +473,9 @@ def test_parameter_record_rebuilds_the_model():
 
 def test_short_run_warns_that_both_cases_are_the_same_and_says_what_each_case_does(tmp_path, capsys):
     """--t1 0.05 ends when the contact switches on: the CLI says the cases coincide; the
-    console says for each case that it compiles and solves, and when it is done (nothing for the
-    timing rerun), not a line per segment."""
+    console says for each case that it compiles (or loads) and solves, and when it is done and
+    whether the compilation cache served (nothing for the timing rerun), not a line per
+    segment."""
     args = ["xu2014", "--out", str(tmp_path), "--t1", "0.05", "--samples", "501", "--no-figures"]
     assert cli.main(args) == 0
     out, err = capsys.readouterr()
@@ -470,7 +488,22 @@ def test_short_run_warns_that_both_cases_are_the_same_and_says_what_each_case_do
     lines = err.split("\n")
     for label in ("with impact", "without impact"):
         started, done = [line for line in lines if line.startswith(f"{label}:")]
-        assert "compiling and solving 0-0.05 s" in started and "compilation cache" in started
-        assert re.fullmatch(rf"{label}: done in [0-9.]+ s", done)
+        assert "compiling the model" in started and "compilation cache" in started
+        assert "solving 0-0.05 s" in started
+        # the done line says whether the cache served (this test's process: either)
+        said = r"(compiled.*|the compiled model came from this machine's compilation cache)"
+        assert re.fullmatch(rf"{label}: done in [0-9.]+ s \({said}\)", done)
     assert len(lines) <= 6  # the warning, two lines a case, the final newline
     assert "100.0 %" not in err + out and "%|" not in out
+
+
+def test_a_run_that_ends_before_the_metrics_window_reports_no_peaks_and_no_life(tmp_path):
+    """--t1 0.03 ends before the case's window start (0.04 s): the peaks after it and the lives
+    have no value (null in summary.json), and the run succeeds: the life's window is not
+    asked for an empty span."""
+    args = ["xu2014", "--out", str(tmp_path), "--t1", "0.03", "--samples", "301", "--no-figures", "--no-rerun"]
+    assert cli.main(args) == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["peak_window_from_s"] == 0.04
+    for case in s["cases"].values():
+        assert case["peak_ball_load_N"] is None and case["l10_iso_hours"] is None

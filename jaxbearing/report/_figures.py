@@ -19,6 +19,7 @@ from ..cases import FIGURE_WINDOW
 from ._series import as_series, ball_keys
 
 BODIES = (("slider", "C0"), ("target", "C3"))  # Fig. 12's bodies and their colours
+ENVELOPE_BINS = 2000  # a curve above twice this many samples is drawn as its min-max envelope
 _STYLE = {  # per case (with impact or not): line style; colours are per quantity
     True: {"linestyle": "-", "linewidth": 0.8, "alpha": 0.9},
     False: {"linestyle": "--", "linewidth": 1.3, "alpha": 1.0},
@@ -118,6 +119,22 @@ def plot_figures(out_dir, cases: Mapping[str, Mapping | object], window=FIGURE_W
     return [_draw(Path(out_dir), figure, ordered, window, xlim) for figure in _figures(balls)]
 
 
+def envelope(t, y, bins: int):
+    """(t, y) thinned to the samples that hold the minimum and the maximum of each of ``bins``
+    runs of consecutive samples, in time order: drawn, the same picture as every sample at any
+    width up to ``bins`` pixels (each extreme, e.g. a 1 us impact peak, is kept), with about
+    2 ``bins`` points instead of millions. Fewer than 2 ``bins`` samples are returned as they are."""
+    t, y = np.asarray(t), np.asarray(y)
+    if t.size <= 2 * bins:
+        return t, y
+    edges = np.linspace(0, t.size, bins + 1).astype(int)
+    runs = [y[a:b] for a, b in zip(edges[:-1], edges[1:])]
+    lows = [a + int(np.nanargmin(r)) if np.isfinite(r).any() else a for a, r in zip(edges[:-1], runs)]
+    highs = [a + int(np.nanargmax(r)) if np.isfinite(r).any() else a for a, r in zip(edges[:-1], runs)]
+    keep = np.unique(np.concatenate([lows, highs]))
+    return t[keep], y[keep]
+
+
 def _draw(out_dir: Path, figure: _Figure, ordered, window, xlim) -> Path:
     from matplotlib.figure import Figure
 
@@ -132,8 +149,7 @@ def _draw(out_dir: Path, figure: _Figure, ordered, window, xlim) -> Path:
                 if curve.key not in d:  # e.g. no bearing
                     continue
                 ax.plot(
-                    d["t"][inside],
-                    d[curve.key][inside] * curve.scale,
+                    *envelope(d["t"][inside], d[curve.key][inside] * curve.scale, ENVELOPE_BINS),
                     color=curve.colour or ("C3" if impact else "k"),
                     label=label if curve.name is None else f"{curve.name}, {label}",
                     **_STYLE[impact],

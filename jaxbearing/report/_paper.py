@@ -124,9 +124,13 @@ def _metric_peak(metric, sol, t_min: float, applies: bool = True) -> tuple[float
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
     """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
-    with the case's groove ratios, in millions of relative revolutions and hours."""
+    with the case's groove ratios, in millions of relative revolutions and hours, over t >=
+    ``t_min``; NaN where the run ended before it."""
     from .. import life
 
+    if float(sol.t_final) <= t_min:  # the run ended before the window: no life
+        names = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
+        return dict.fromkeys(names, math.nan)
     iso = life.iso_life(sol, model, t_min=t_min)
     lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
     return {
