@@ -1,4 +1,4 @@
-"""Scalar metrics of a `Solution`, over a time window [t_min, t_max] [s]: by default
+"""Scalar metrics of a `Solution`, over a time window ``[t_min, t_max]`` [s]: by default
 (``t_min="model"``, ``t_max=None``) from the model's ``window_start`` (`Mechanism`; the paper's
 case starts it after the start-up transient in which the rod falls onto the race and rings;
 None: the whole span) to the end of the solve; ``t_min=None`` starts it with the solve.
@@ -8,9 +8,11 @@ interval between its stops, the peaks and integrals over every accepted solver s
 step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
 metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
 stops: t0, the model's ``window_start`` and t1 always are, and ``SolveOptions.window_edges``
-adds others. An edge
-that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in
-Python, makes the metric NaN with a warning at run time (in `jaxbearing.sweep` its member fails).
+adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
+cannot be checked in Python, makes the metric NaN (`jaxbearing.sweep` marks such a member failed
+with the reason, `jaxbearing.sensitivity` and `jaxbearing.tune` raise it). No warning is issued
+from inside a compiled program: its host callback would keep the program out of JAX's
+persistent compilation cache.
 
 All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
 differentiation transforms:
@@ -35,8 +37,7 @@ Forces in N, displacements in m.
 
 A window that holds none of the solved span (e.g. a run that ends before the default t_min)
 has no value: with a concrete solution and window the metric raises a `ValueError` naming
-``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN and a warning says so at
-run time.
+``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN, as above.
 
 A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
 is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
@@ -49,12 +50,9 @@ tolerances and compares the metric's values (docs/metrics.md).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import numbers
-import warnings
 from collections.abc import Callable
 
-import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -91,7 +89,7 @@ class WithModel:
 
 
 def window(ts, t_min=None, t_max=None) -> jax.Array:
-    """Weights [s] of the output times over the window [t_min, t_max] (`window_weights`), for
+    """Weights [s] of the output times over the window ``[t_min, t_max]`` (`window_weights`), for
     metrics of sampled series; checked by `check_window` (a window without output times)."""
     lo = -jnp.inf if t_min is None else t_min
     w = window_weights(ts, lo, jnp.inf if t_max is None else t_max)
@@ -100,7 +98,7 @@ def window(ts, t_min=None, t_max=None) -> jax.Array:
 
 
 def window_weights(ts, lo, hi) -> jax.Array:
-    """Weights w [s] with sum_i w_i f(t_i) = the integral over [lo, hi] of the piecewise-linear
+    """Weights w [s] with sum_i w_i f(t_i) = the integral over ``[lo, hi]`` of the piecewise-linear
     interpolant of the samples f(t_i) (trapezoid rule, each interval cut at the window's edges).
 
     So a function linear between samples integrates exactly, whether the edges fall on samples
@@ -122,39 +120,18 @@ def window_weights(ts, lo, hi) -> jax.Array:
 
 def check_window(ts, weights, t_min, t_max, need="one"):
     """A window whose weights [s] are all zero holds fewer than ``need`` output times: raise a
-    `ValueError` when ``ts`` and the window [t_min, t_max] [s] are concrete; traced, warn at
-    run time (the metrics of that window are NaN)."""
+    `ValueError` when ``ts`` and the window ``[t_min, t_max]`` [s] are concrete; traced, the
+    metrics of that window are NaN."""
     _check_not_empty(
         jnp.any(weights > 0), t_min, t_max, ts[0], ts[-1], f"at least {need} of the output times, which span"
     )
 
 
 def _check_not_empty(filled, t_min, t_max, first, last, what):
-    """Raise when ``filled`` is concretely False; traced, warn at run time if False."""
-    if is_concrete(filled, t_min, t_max, first, last):
-        if not bool(filled):
-            raise ValueError(_empty_window(t_min, t_max, first, last, what) + ".")
-        return
-    warn = functools.partial(_warn_empty_window, what=what)
-    _warn_at_run_time(~filled, warn, t_min, t_max, first, last)
-
-
-def _warn_at_run_time(bad, warn, t_min, t_max, first, last):
-    """Traced: call ``warn(t_min, t_max, first, last)`` [s] at run time where ``bad`` holds for
-    any member of a batch."""
-    # the callback's operands unbatched (the latest window start and the shortest span of a
-    # batch): with batched ones vmap unrolls the callback into one a member, and the compiled
-    # program grew with the batch (docs/performance.md, 2026-11-26); no derivative: the warning
-    # only reads them
-    latest = lambda x: eqxi.unvmap_max(jax.lax.stop_gradient(jnp.asarray(x)))  # noqa: E731
-    lo = latest(-jnp.inf if t_min is None else t_min)
-    hi = -latest(-jnp.asarray(jnp.inf if t_max is None else t_max))
-    bounds = (lo, hi, -latest(-jnp.asarray(first)), -latest(-jnp.asarray(last)))
-    jax.lax.cond(
-        eqxi.nonbatchable(eqxi.unvmap_any(bad)),
-        lambda: jax.debug.callback(warn, *bounds),
-        lambda: None,
-    )
+    """A `ValueError` when ``filled`` is concretely False; traced, nothing (the metric is NaN:
+    a host callback would keep the compiled program out of JAX's persistent cache)."""
+    if is_concrete(filled, t_min, t_max, first, last) and not bool(filled):
+        raise ValueError(_empty_window(t_min, t_max, first, last, what) + ".")
 
 
 def _empty_window(t_min, t_max, first, last, what):
@@ -167,24 +144,11 @@ def _empty_window(t_min, t_max, first, last, what):
     )
 
 
-def _warn_empty_window(t_min, t_max, first, last, *, what):
-    warnings.warn(f"{_empty_window(t_min, t_max, first, last, what)}; the metric is NaN.")
-
-
-def _warn_off_stops(t_min, t_max, first, last, *, name):
-    warnings.warn(
-        f"the window t_min = {float(t_min):.6g} s to t_max = {float(t_max):.6g} s needs its edges "
-        f"to be ends of the solution's {name} (or outside the solved span [{float(first):.6g}, "
-        f"{float(last):.6g}] s): pass the edges to simulate, as "
-        "options=jaxbearing.SolveOptions(window_edges=(...)); the metric is NaN."
-    )
-
-
 EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts as that end
 
 
 def _inside(sol: Solution, t_min, t_max):
-    """Which intervals of ``sol.segments`` lie in [t_min, t_max], and whether both edges are
+    """Which intervals of ``sol.segments`` lie in ``[t_min, t_max]``, and whether both edges are
     stops (or outside the solved span). ValueError when they are not and that is known in
     Python."""
     return intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
@@ -200,9 +164,9 @@ def window_start(sol: Solution, t_min):
 
 def intervals_inside(stats, t_min, t_max, name: str):
     """Which intervals of ``stats`` (fields t_start, t_end, valid: `SegmentStats`,
-    `FatigueStats`) lie in [t_min, t_max] [s], and whether both edges are interval ends (or
+    `FatigueStats`) lie in ``[t_min, t_max]`` [s], and whether both edges are interval ends (or
     outside the solved span): a ValueError naming the ``name`` when they are not and that is
-    known in Python; traced, the second value is False and a warning says so at run time."""
+    known in Python; traced, the second value is False (the metric is NaN)."""
     if t_min is None:
         t_min = -jnp.inf
     start_is = 'the window\'s start, "model" (the model\'s window_start) or None (from t0)'
@@ -228,9 +192,6 @@ def intervals_inside(stats, t_min, t_max, name: str):
             f"solution's {name} (not: {', '.join(map(str, missing))} s): pass the edges to "
             f"simulate, as simulate(..., options=jaxbearing.SolveOptions(window_edges={missing}))."
         )
-    if not is_concrete(ok):
-        warn = functools.partial(_warn_off_stops, name=name)
-        _warn_at_run_time(~ok, warn, t_min, t_max, start, end)
     inside = (
         stats.valid
         & (stats.t_start >= t_min - EDGE_TOLERANCE)

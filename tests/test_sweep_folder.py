@@ -52,9 +52,8 @@ METRICS = {
 }
 TESTS = os.path.dirname(os.path.abspath(__file__))
 
-pytestmark = [  # the member with a NaN metric is reported; its hidden window warns at run time
+pytestmark = [  # the member with a NaN metric is reported
     pytest.mark.filterwarnings("ignore:sweep. [0-9]+ of [0-9]+ members failed:RuntimeWarning"),
-    pytest.mark.filterwarnings("ignore:the window t_min = 0.002 s .* needs its edges:UserWarning"),
 ]
 
 

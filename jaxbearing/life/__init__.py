@@ -26,7 +26,7 @@ Bearing Analysis*, 5th ed., Wiley 2006, *Advanced Concepts* ch. 8 for Lundbergâ€
   of relative revolutions. A load carried while the rings do not turn relative to each other
   does not count. Short impacts count by the revolutions turned while they last (the
   standard's convention for variable loads), not as extra stress cycles.
-- **Window.** [t_min, t_max]. On a `Solution` the default (``t_min="model"``) starts at the
+- **Window.** ``[t_min, t_max]``. On a `Solution` the default (``t_min="model"``) starts at the
   model's ``window_start`` (`Mechanism`; `cases.xu2014` after its start-up transient; None: the
   whole span); on arrays the default (None) is the whole history. On arrays, the weights integrate the samples'
   piecewise-linear interpolant over the window exactly, edges between samples included

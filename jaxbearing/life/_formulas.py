@@ -103,7 +103,7 @@ def _weights(ts, relative_speed, lo, hi):
 
 def revolution_weights(ts, relative_speed, t_min=None, t_max=None):
     """Weight of each output time in relative revolutions: trapezoid weight times
-    |omega_rel| / (2 pi), zero outside [t_min, t_max] (None: unbounded). Sums to the relative
+    |omega_rel| / (2 pi), zero outside ``[t_min, t_max]`` (None: unbounded). Sums to the relative
     revolutions turned in the window.
 
     Args: ts (T,) [s], increasing; relative_speed (T,) omega_inner - omega_outer [rad/s].
