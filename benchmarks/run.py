@@ -356,9 +356,10 @@ def _gradient(args):
     forward = eqx.filter_jit(lambda x: metric(x, diffrax.RecursiveCheckpointAdjoint()))
     jacfwd = eqx.filter_jit(jax.jacfwd(lambda x: metric(x, diffrax.ForwardMode())[0]))
 
-    def gradient(x):
+    def gradient(x):  # at the forward run's tolerances: the ratio compares equal work per step
         m = jb.paths.replace(model, dict(zip(names, x)))
-        _, grads = jb.sensitivity(m, jb.metrics.smooth_peak_ball_load, names, args.t1, ts)
+        _, grads = jb.sensitivity(m, jb.metrics.smooth_peak_ball_load, names, args.t1, ts,
+                                  stepsize_controller=jb.default_controller())
         return jax.numpy.stack([grads[n] for n in names])
 
     (value, sol), first_f = _timed(lambda: forward(x0))
