@@ -20,6 +20,14 @@ are rougher functions of the parameters, though: a ball that barely grazes the r
 damping on with a jump, so a metric can bend sharply within a few tens of nanometres of clearance.
 For optimisation prefer the smooth force and smooth metrics (`metrics.SMOOTH`); the exact peaks
 jump when another sample takes the maximum.
+
+Tolerances: the derivative of an adaptive solve is the derivative of the steps it took, not
+under the step control, and converges more slowly than the solution. At simulate's default
+(rtol 1e-8) derivatives of the standard metrics w.r.t. the clearance were 2-23 % off their
+converged values on the paper's case and the four-bar, at rtol 1e-10 up to 4.5 %, at
+`DERIVATIVE_RTOL` (1e-11) at most 0.7 % (docs/gradients.md has the table). `sensitivity`
+simulates at `derivative_controller()` unless given a ``stepsize_controller``; `tune`
+differentiates whatever the loss simulates, so a loss should pass it itself.
 """
 
 from __future__ import annotations
@@ -34,7 +42,21 @@ import numpy as np
 import optax
 
 from . import _checks, paths as _paths
-from .solve import simulate
+from .solve import default_controller, simulate
+
+DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
+DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
+
+
+def derivative_controller() -> diffrax.PIDController:
+    """``default_controller(DERIVATIVE_RTOL, DERIVATIVE_ATOL)`` (rtol 1e-11, atol 1e-13): the
+    step-size control at which derivatives of the standard metrics were within 2 % of their
+    converged values on the paper's case and the four-bar (at most 0.7 %; at simulate's default
+    rtol 1e-8 up to 23 %, at 1e-10 up to 4.5 %: docs/gradients.md). The derivative of an adaptive
+    solve converges more slowly than the solution: the step control bounds the error of the
+    states, not of their derivatives. About four times the steps of simulate's default.
+    `sensitivity` uses it by default; pass it to `simulate` in a `tune` loss."""
+    return default_controller(rtol=DERIVATIVE_RTOL, atol=DERIVATIVE_ATOL)
 
 
 def _values(model, names: Sequence[str], purpose: str) -> jax.Array:
@@ -67,7 +89,12 @@ def sensitivity(
         model: the model at the design point.
         metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`).
         names: parameter paths, e.g. ``["bearing.clearance", "impact.restitution"]``.
-        t1, ts, **simulate_kwargs: passed to `simulate`.
+        t1, ts, **simulate_kwargs: passed to `simulate`. Without a ``stepsize_controller``
+            (or with None) it simulates at `derivative_controller()` (rtol `DERIVATIVE_RTOL` =
+            1e-11, atol 1e-13), not at simulate's default (rtol 1e-8): the derivative of the
+            discrete solve converges more slowly than the solution, and at rtol 1e-8 the
+            derivatives of the standard metrics were up to 23 % off (docs/gradients.md). A
+            ``stepsize_controller`` you pass wins.
         mode: ``"forward"`` (one `jax.jvp` per parameter, `diffrax.ForwardMode`) or
             ``"reverse"`` (`jax.grad`).
 
@@ -76,6 +103,8 @@ def sensitivity(
     """
     if mode not in ("forward", "reverse"):
         raise ValueError(f"mode must be 'forward' or 'reverse'; got {mode!r}.")
+    if simulate_kwargs.get("stepsize_controller") is None:
+        simulate_kwargs = {**simulate_kwargs, "stepsize_controller": derivative_controller()}
     names = tuple(names) if not isinstance(names, str) else names
     x = _values(model, names, "to be differentiated")
     value, grad = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
@@ -136,6 +165,14 @@ def tune(
     The optimiser works on scaled variables x = value / scale (scale defaults to |initial value|)
     so that parameters of different units (a clearance of 4e-5 m, a restitution of 0.9) move at
     comparable rates; after each update the values are projected onto ``bounds``.
+
+    Tolerances: `tune` follows the gradient of the loss as the loss computes it, at whatever
+    tolerance its `simulate` runs. simulate's default (rtol 1e-8) gave derivatives of the
+    standard metrics up to 23 % off their converged values; the derivative of the discrete solve
+    converges more slowly than the solution. For gradients within 2 % (measured, with margin, on
+    the paper's case and the four-bar: docs/gradients.md) simulate in the loss at
+    ``stepsize_controller=derivative_controller()``, i.e. ``default_controller(rtol=1e-11,
+    atol=1e-13)`` (`DERIVATIVE_RTOL`), about four times the steps.
 
     Args:
         loss: function of a model returning a scalar (it simulates and measures).
