@@ -32,6 +32,7 @@ differentiates whatever the loss simulates, so a loss should pass it itself.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 
 import diffrax
@@ -42,10 +43,12 @@ import numpy as np
 import optax
 
 from . import _checks, paths as _paths
+from .solution import SimulationError
 from .solve import default_controller, simulate
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
+LOSS_JUMP = 10.0  # `tune` warns when the loss rises above this factor of the previous one
 
 
 def derivative_controller() -> diffrax.PIDController:
@@ -131,15 +134,35 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     return values[0], grad
 
 
+class TuneWarning(UserWarning):
+    """What `tune` noticed on its way: an invalid iterate, a loss that jumps, a gradient that is
+    zero (`TuneResult.notes` keeps the messages)."""
+
+
+# what an iterate's failed simulation raises under tune's jit: a broken rule or a solver failure
+# (`eqx.error_if` at run time), or a failure outside any transformation
+_FAILURES = tuple(
+    c
+    for c in (SimulationError, getattr(eqx, "EquinoxRuntimeError", None),
+              getattr(jax.errors, "JaxRuntimeError", None))
+    if c is not None
+)
+
+
 class TuneResult(eqx.Module):
     """Outcome of `tune`.
 
     Fields:
-        model: the model at the best parameters found.
+        model: the model at the best valid parameters found.
         values: {name: best value}.
-        loss: the best loss.
-        history_loss: (steps + 1,) loss at each iterate (the last one included).
-        history_values: {name: (steps + 1,) values}.
+        loss: the best loss (of a valid iterate: never NaN).
+        history_loss: loss at each iterate evaluated, (steps + 1,) unless `tune` stopped at an
+            invalid iterate: then the last, its loss NaN.
+        history_values: {name: values at each iterate evaluated}, as ``history_loss``.
+        invalid_steps: steps whose iterate was invalid (its simulation failed, or its loss or
+            gradient was not finite); `tune` stops at the first, so at most one.
+        notes: the messages of the `TuneWarning`s `tune` gave (invalid iterate, loss jumps,
+            zero gradient), in that order.
     """
 
     model: object
@@ -147,6 +170,8 @@ class TuneResult(eqx.Module):
     loss: jax.Array
     history_loss: np.ndarray
     history_values: dict
+    invalid_steps: tuple = ()
+    notes: tuple = ()
 
 
 def tune(
@@ -174,6 +199,16 @@ def tune(
     ``stepsize_controller=derivative_controller()``, i.e. ``default_controller(rtol=1e-11,
     atol=1e-13)`` (`DERIVATIVE_RTOL`), about four times the steps.
 
+    Valid iterates only: an iterate whose evaluation fails (a parameter value the model's rules
+    refuse, such as a clearance above a tenth of the ball diameter; a solver failure; a loss or
+    gradient that is not finite) is invalid. Its gradient cannot be followed, so `tune` stops
+    there, warns (`TuneWarning`, naming the step, the values and the cause) and returns the best
+    valid iterate; ``invalid_steps`` names it. An invalid starting point raises. `tune` also
+    warns, once each after the run, when the loss rises from one step to the next above
+    `LOSS_JUMP` (10) times the previous one (by more than 9 times its magnitude, for a loss of
+    either sign: the optimiser overshot), and when the loss is 0 or its gradient exactly zero at
+    an iterate (no contact or no load in the window: the optimiser gets no direction there).
+
     Args:
         loss: function of a model returning a scalar (it simulates and measures).
         model: the starting model.
@@ -182,7 +217,8 @@ def tune(
         steps: number of gradient steps.
         bounds: {name: (low, high)} in parameter units.
         scale: {name: scale} in parameter units.
-        callback: called as ``callback(step, loss, {name: value})`` after each evaluation.
+        callback: called as ``callback(step, loss, {name: value})`` after each evaluation (the
+            loss NaN for an invalid iterate).
     """
     names = list(names) if not isinstance(names, str) else names
     if steps < 1:
@@ -216,23 +252,41 @@ def tune(
 
     x = x0 / scales
     state = optimizer.init(x)
-    losses, iterates = [], []
+    losses, iterates, invalid, flat, jumps = [], [], [], [], []
+    cause = None
     for step in range(steps + 1):
-        value, grad = value_and_grad(x)
-        if not bool(jnp.isfinite(value)) or not bool(jnp.all(jnp.isfinite(grad))):
-            raise FloatingPointError(
-                f"tune: the loss or its gradient is not finite at step {step} "
-                f"({dict(zip(names, np.asarray(x * scales).tolist()))}); check the loss, the "
-                "bounds, and use the smooth ball force for gradients."
-            )
-        losses.append(float(value))
         iterates.append(np.asarray(x * scales))
+        here = dict(zip(names, iterates[-1].tolist()))
+        try:
+            value, grad = value_and_grad(x)
+            if not bool(jnp.isfinite(value)) or not bool(jnp.all(jnp.isfinite(grad))):
+                cause = "the loss or its gradient is not finite"
+        except _FAILURES as error:
+            if step == 0:
+                raise  # the starting point itself: nothing valid to return
+            value, cause = jnp.nan, f"its evaluation failed ({_first_line(error)})"
+        if cause is not None and step == 0:
+            raise FloatingPointError(
+                f"tune: the loss or its gradient is not finite at step 0 ({here}); check the loss "
+                "and use the smooth ball force for gradients."
+            )
+        losses.append(float(value) if cause is None else float("nan"))
         if callback is not None:
-            callback(step, float(value), dict(zip(names, iterates[-1].tolist())))
+            callback(step, losses[-1], here)
+        if cause is not None:
+            invalid.append(step)
+            break
+        if losses[-1] == 0.0 or not bool(jnp.any(grad != 0)):
+            flat.append(step)
+        if step > 0 and losses[-2] != 0.0 and losses[-1] - losses[-2] > (LOSS_JUMP - 1.0) * abs(losses[-2]):
+            jumps.append(step)
         if step < steps:
             x, state = update(x, grad, state)
-    best = int(np.argmin(losses))
+    best = int(np.nanargmin(losses))  # invalid iterates have NaN losses; step 0 is valid
     values = dict(zip(names, iterates[best].tolist()))
+    notes = _notes(names, losses, iterates, best, invalid, jumps, flat, cause)
+    for note in notes:
+        warnings.warn(note, TuneWarning, stacklevel=2)
     history = np.stack(iterates)
     return TuneResult(
         model=_set(model, names, jnp.asarray(iterates[best])),
@@ -240,4 +294,54 @@ def tune(
         loss=jnp.asarray(losses[best]),
         history_loss=np.asarray(losses),
         history_values={n: history[:, i] for i, n in enumerate(names)},
+        invalid_steps=tuple(invalid),
+        notes=tuple(notes),
     )
+
+
+def _first_line(error: BaseException) -> str:
+    """The message of ``error`` in one line: for an `eqx.error_if` under jit the message itself,
+    which its text wraps in stack traces and paragraphs on debugging; else its first line."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    raised = [line.split("RuntimeError: ", 1)[1] for line in lines if "EquinoxRuntimeError: " in line]
+    return (raised or lines or [type(error).__name__])[0]
+
+
+def _steps(steps: list[int]) -> str:
+    """``steps`` written out, the first ten of them."""
+    shown = ", ".join(str(k) for k in steps[:10])
+    return f"{shown}, ... ({len(steps)} in all)" if len(steps) > 10 else shown
+
+
+def _notes(names, losses, iterates, best, invalid, jumps, flat, cause) -> list[str]:
+    """The messages of `tune`'s warnings: invalid iterate, loss jumps, zero gradient."""
+    def at(k):
+        return dict(zip(names, iterates[k].tolist()))
+
+    kept = f"returns the best valid iterate, step {best} (loss {losses[best]:.6g}, {at(best)})"
+    notes = []
+    for k in invalid:
+        notes.append(
+            f"tune: the iterate of step {k} ({at(k)}) is not valid: {cause}. tune stopped there (its "
+            f"gradient cannot be followed) and {kept}. Bounds on the parameters, a smaller learning "
+            "rate or a scale keep the iterates valid."
+        )
+    if jumps:
+        k = jumps[0]
+        notes.append(
+            f"tune: the loss jumped above {LOSS_JUMP:g} times the previous step's at step "
+            f"{_steps(jumps)} (at step {k} from {losses[k - 1]:.6g} to {losses[k]:.6g}, {at(k)}): "
+            f"the optimiser overshot; a smaller learning rate, bounds or a scale keep it near. "
+            f"tune {kept}."
+        )
+    if flat:
+        k = flat[0]
+        notes.append(
+            f"tune: the gradient is zero (or the loss 0) at step {_steps(flat)} (at step {k} loss "
+            f"{losses[k]:.6g}, {at(k)}): no contact/no load in the window? The optimiser gets no "
+            "direction there; "
+            "check that the objective's contact exists at these values (a clearance too large to "
+            "touch?), the metric's window, or bound the parameters."
+            + (f" The best iterate, step {best}, is one of them." if best in flat else "")
+        )
+    return notes

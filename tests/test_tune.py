@@ -161,6 +161,62 @@ def test_sensitivity_defaults_to_the_derivative_tolerance(monkeypatch):
         assert float(seen[-1].rtol) == rtol
 
 
+def test_tune_warns_when_the_loss_jumps():
+    model = jb.cases.xu2014()
+
+    def loss(m):  # x = clearance / 40 µm; SGD at 5 multiplies x - 0.5 by -9 a step
+        return (m.bearing.clearance / 4e-5 - 0.5) ** 2
+
+    with pytest.warns(jb._tune.TuneWarning, match=r"the loss jumped above 10 times the previous step's at step 1, 2 "):
+        result = jb.tune(loss, model, ["bearing.clearance"], optax.sgd(5.0), 2)
+    assert float(result.loss) == pytest.approx(0.25) and result.values["bearing.clearance"] == 4e-5  # step 0
+    assert result.invalid_steps == () and len(result.notes) == 1
+
+
+def test_tune_warns_when_the_gradient_is_zero():
+    """A loss that goes flat (no load: a hinge at 50 µm) past the first step."""
+    model = jb.cases.xu2014()
+    with pytest.warns(jb._tune.TuneWarning, match=r"the gradient is zero \(or the loss 0\) at step 1, 2 .*"
+                      r"no contact/no load in the window\?"):
+        result = jb.tune(lambda m: jax.nn.relu(5e-5 - m.bearing.clearance) / 1e-5, model,
+                         ["bearing.clearance"], optax.sgd(1.0), 2)
+    np.testing.assert_allclose(result.history_loss, [1.0, 0.0, 0.0], rtol=1e-12)
+
+
+def test_tune_stops_at_a_non_finite_loss():
+    model = jb.cases.xu2014()
+
+    def loss(m):  # NaN below 20 µm: SGD at 1 jumps from 40 µm to 0
+        c = m.bearing.clearance / 4e-5
+        return jnp.where(c > 0.5, (c - 0.75) ** 2 * 4, jnp.nan)
+
+    with pytest.warns(jb._tune.TuneWarning, match=r"step 1 .* is not valid: the loss or its gradient is "
+                      r"not finite\. tune stopped there .* returns the best valid iterate, step 0"):
+        result = jb.tune(loss, model, ["bearing.clearance"], optax.sgd(0.5), 5)
+    assert result.invalid_steps == (1,)
+    assert result.history_loss.shape == (2,) and np.isnan(result.history_loss[1])
+    assert float(result.loss) == pytest.approx(0.25) and result.values["bearing.clearance"] == 4e-5
+
+
+def test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance():
+    """An unbounded tune with a huge step: Adam's first step moves the clearance by 1000 of its
+    scale (20 mm, beyond the model's rules either way); the solve refuses it, tune stops, warns
+    and returns the starting point, the only valid iterate."""
+    model = rotor_model()
+
+    def loss(m):
+        return rotor_metric(jb.simulate(m, 0.02, ROTOR_TS, **ROTOR_KW))
+
+    with pytest.warns(jb._tune.TuneWarning, match=r"step 1 .* is not valid: its evaluation failed "
+                      r"\(bearing clearance must .*\)\. tune stopped there"):
+        result = jb.tune(loss, model, ["bearing.clearance"], optax.adam(1000.0), 3)
+    assert result.invalid_steps == (1,)
+    assert abs(result.history_values["bearing.clearance"][1]) > 1e-2
+    assert result.values["bearing.clearance"] == 20e-6
+    assert np.isfinite(float(result.loss)) and float(result.loss) == result.history_loss[0]
+    assert float(result.model.bearing.clearance) == 20e-6
+
+
 @pytest.mark.slow
 def test_four_bar_derivative_at_the_default_tolerance_is_within_2_percent():
     """docs/gradients.md's table: the four-bar's derivatives w.r.t. the clearance at
