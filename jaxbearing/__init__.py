@@ -33,11 +33,12 @@ from .solve import (
     simulate_one_loop,
 )
 from ._sweep import sweep
-from ._tune import TuneResult, sensitivity, tune
+from ._tune import DERIVATIVE_RTOL, TuneResult, TuneWarning, derivative_controller, sensitivity, tune
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "DERIVATIVE_RTOL",
     "RESULTS",
     "BallBearing",
     "Contacts",
@@ -45,6 +46,7 @@ __all__ = [
     "Mechanism",
     "SimulationError",
     "TuneResult",
+    "TuneWarning",
     "Solution",
     "SolveOptions",
     "cases",
@@ -52,6 +54,7 @@ __all__ = [
     "default_max_onsets",
     "default_max_segments",
     "default_solver",
+    "derivative_controller",
     "kvaerno5",
     "laws",
     "life",

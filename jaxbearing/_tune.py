@@ -21,13 +21,13 @@ damping on with a jump, so a metric can bend sharply within a few tens of nanome
 For optimisation prefer the smooth force and smooth metrics (`metrics.SMOOTH`); the exact peaks
 jump when another sample takes the maximum.
 
-Tolerances: the derivative of an adaptive solve is the derivative of the steps it took, not
-under the step control, and converges more slowly than the solution. At simulate's default
-(rtol 1e-8) derivatives of the standard metrics w.r.t. the clearance were 2-23 % off their
-converged values on the paper's case and the four-bar, at rtol 1e-10 up to 4.5 %, at
-`DERIVATIVE_RTOL` (1e-11) at most 0.7 % (docs/gradients.md has the table). `sensitivity`
-simulates at `derivative_controller()` unless given a ``stepsize_controller``; `tune`
-differentiates whatever the loss simulates, so a loss should pass it itself.
+Tolerances: the derivative of an adaptive solve is the derivative of the steps it took, which
+the step control does not bound, and it converges more slowly than the solution: at simulate's
+default tolerances the derivatives of the standard metrics are off by several per cent, at
+`DERIVATIVE_RTOL` within 2 % of converged on the paper's case and the four-bar
+(docs/gradients.md has the measured table). `sensitivity` simulates at `derivative_controller()`
+unless given a ``stepsize_controller``; `tune` differentiates whatever the loss simulates, so a
+loss should pass it itself.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ import numpy as np
 import optax
 
 from . import _checks, paths as _paths
-from .solution import SimulationError
+from .solution import RESULTS, SimulationError
 from .solve import default_controller, simulate
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
@@ -52,13 +52,12 @@ LOSS_JUMP = 10.0  # `tune` warns when the loss rises above this factor of the pr
 
 
 def derivative_controller() -> diffrax.PIDController:
-    """``default_controller(DERIVATIVE_RTOL, DERIVATIVE_ATOL)`` (rtol 1e-11, atol 1e-13): the
-    step-size control at which derivatives of the standard metrics were within 2 % of their
-    converged values on the paper's case and the four-bar (at most 0.7 %; at simulate's default
-    rtol 1e-8 up to 23 %, at 1e-10 up to 4.5 %: docs/gradients.md). The derivative of an adaptive
-    solve converges more slowly than the solution: the step control bounds the error of the
-    states, not of their derivatives. About four times the steps of simulate's default.
-    `sensitivity` uses it by default; pass it to `simulate` in a `tune` loss."""
+    """``default_controller(DERIVATIVE_RTOL, DERIVATIVE_ATOL)``: the step-size control at which
+    derivatives of the standard metrics are within 2 % of their converged values on the paper's
+    case and the four-bar (docs/gradients.md has the measurements). The step control bounds the
+    error of the states, not of their derivatives, which converge more slowly. It takes several
+    times the steps of simulate's default. `sensitivity` uses it by default; pass it to
+    `simulate` in a `tune` loss."""
     return default_controller(rtol=DERIVATIVE_RTOL, atol=DERIVATIVE_ATOL)
 
 
@@ -92,26 +91,46 @@ def sensitivity(
         model: the model at the design point.
         metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`).
         names: parameter paths, e.g. ``["bearing.clearance", "impact.restitution"]``.
-        t1, ts, **simulate_kwargs: passed to `simulate`. Without a ``stepsize_controller``
-            (or with None) it simulates at `derivative_controller()` (rtol `DERIVATIVE_RTOL` =
-            1e-11, atol 1e-13), not at simulate's default (rtol 1e-8): the derivative of the
-            discrete solve converges more slowly than the solution, and at rtol 1e-8 the
-            derivatives of the standard metrics were up to 23 % off (docs/gradients.md). A
-            ``stepsize_controller`` you pass wins.
+        t1, ts, **simulate_kwargs: passed to `simulate` (not ``throw``: a failure raises
+            here, after the compiled call). Without a ``stepsize_controller`` (or with None) it
+            simulates at `derivative_controller()`, not at simulate's default: the derivative
+            of the discrete solve converges more slowly than the solution (docs/gradients.md).
+            A ``stepsize_controller`` you pass wins.
         mode: ``"forward"`` (one `jax.jvp` per parameter, `diffrax.ForwardMode`) or
             ``"reverse"`` (`jax.grad`).
 
     Returns:
         ``(value, {name: derivative})`` in the metric's units per parameter unit.
+
+    Raises the simulation's own error (`SimulationError`, or a `ValueError` naming a broken
+    rule or the metric's window) when the solve fails or the value or a derivative is not
+    finite. The compiled derivative carries no host callback, so JAX's persistent compilation
+    cache keeps it for the next process.
     """
     if mode not in ("forward", "reverse"):
         raise ValueError(f"mode must be 'forward' or 'reverse'; got {mode!r}.")
+    if "throw" in simulate_kwargs:
+        raise TypeError("sensitivity takes no throw: a failure raises after the compiled call.")
     if simulate_kwargs.get("stepsize_controller") is None:
         simulate_kwargs = {**simulate_kwargs, "stepsize_controller": derivative_controller()}
     names = tuple(names) if not isinstance(names, str) else names
     x = _values(model, names, "to be differentiated")
-    value, grad = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
+    value, grad, failed = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
+    if bool(failed) or not np.isfinite(np.asarray(value)) or not np.all(np.isfinite(np.asarray(grad))):
+        _raise_cause(model, metric, t1, ts, simulate_kwargs)
     return value, {n: grad[i] for i, n in enumerate(names)}
+
+
+def _raise_cause(model, metric, t1, ts, simulate_kwargs):
+    """The error of a failed `sensitivity`: the simulation's or the metric's own, found by
+    running them on the host at the design point; else a `ValueError` saying what was not
+    finite."""
+    value = metric(simulate(model, t1, ts, **simulate_kwargs))
+    raise ValueError(
+        f"the derivatives of the metric at this design point are not finite (the metric is "
+        f"{float(value)!r}): a parameter may sit where the metric does not depend smoothly on "
+        "it (an exact peak that changes hands, a contact that just touches)."
+    )
 
 
 @eqx.filter_jit
@@ -120,18 +139,23 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     (arrays of the same shapes) reuse it."""
     adjoint = diffrax.ForwardMode() if mode == "forward" else None
 
-    def f(values):
-        sol = simulate(_set(model, names, values), t1, ts, adjoint=adjoint, **simulate_kwargs)
-        return metric(sol)
+    def f(values):  # (metric, whether the solve failed): failures are raised on the host
+        sol = simulate(_set(model, names, values), t1, ts, adjoint=adjoint, throw=False, **simulate_kwargs)
+        return metric(sol), sol.result != RESULTS.successful
 
     if mode == "reverse":
-        return jax.value_and_grad(f)(x)
+        (value, failed), grad = jax.value_and_grad(f, has_aux=True)(x)
+        return value, grad, failed
 
     # one tangent at a time (`lax.map` over the unit vectors: one compiled jvp), not a batch of
     # them as `jax.jacfwd` takes: batched tangents cost more per tangent on a CPU than a
     # tangent alone, and compile longer (docs/performance.md)
-    values, grad = jax.lax.map(lambda v: jax.jvp(f, (x,), (v,)), jnp.eye(x.shape[0], dtype=x.dtype))
-    return values[0], grad
+    def tangent(v):
+        value, derivative, failed = jax.jvp(f, (x,), (v,), has_aux=True)
+        return value, derivative, failed
+
+    values, grad, failed = jax.lax.map(tangent, jnp.eye(x.shape[0], dtype=x.dtype))
+    return values[0], grad, jnp.any(failed)
 
 
 class TuneWarning(UserWarning):
@@ -192,12 +216,11 @@ def tune(
     comparable rates; after each update the values are projected onto ``bounds``.
 
     Tolerances: `tune` follows the gradient of the loss as the loss computes it, at whatever
-    tolerance its `simulate` runs. simulate's default (rtol 1e-8) gave derivatives of the
-    standard metrics up to 23 % off their converged values; the derivative of the discrete solve
-    converges more slowly than the solution. For gradients within 2 % (measured, with margin, on
-    the paper's case and the four-bar: docs/gradients.md) simulate in the loss at
-    ``stepsize_controller=derivative_controller()``, i.e. ``default_controller(rtol=1e-11,
-    atol=1e-13)`` (`DERIVATIVE_RTOL`), about four times the steps.
+    tolerance its `simulate` runs; at simulate's default the derivatives of the standard metrics
+    are off by several per cent (the derivative of the discrete solve converges more slowly than
+    the solution). For gradients within 2 % (docs/gradients.md) simulate in the loss at
+    ``stepsize_controller=derivative_controller()`` (`DERIVATIVE_RTOL`), several times the
+    steps.
 
     Valid iterates only: an iterate whose evaluation fails (a parameter value the model's rules
     refuse, such as a clearance above a tenth of the ball diameter; a solver failure; a loss or

@@ -4,7 +4,9 @@ For each diametral clearance P_d and coefficient of restitution e_c, simulates 0
 paper's case with impact (Xu 2014, Sect. 3) and records the peak ball load and the peak bearing
 force |F| over t >= 0.04 s (after the start-up transient), plus the other standard metrics.
 Results go to ``OUT/`` through ``sweep(out=...)`` (resumable: rerun the same command after an
-interruption), then ``OUT/results.nc`` and one heatmap PNG per metric.
+interruption), then ``OUT/results.nc`` and one heatmap PNG per metric. Last, whether the map's
+peak ball load is converged in the solver's tolerance at the paper's point (two tolerances,
+`jaxbearing.metrics.converged`; ``OUT/convergence.json``).
 
     python studies/clearance_sweep.py             # 8 x 4 grid, 5–80 µm x e 0.5–1.0, 0–0.2 s
     python studies/clearance_sweep.py --quick     # 2 x 2 grid, 0–0.12 s (first impacts)
@@ -84,11 +86,28 @@ def main(argv=None) -> int:
     wall = time.perf_counter() - tic
     _report_speed(ds, wall)
     _print_table(ds)
+    _check_convergence(jb, model, t1, out)
     for name, label in PLOTTED.items():
         path = out / f"{name}.png"
         _heatmap(ds, name, label, path)
         print(f"wrote {path}")
     return 0
+
+
+def _check_convergence(jb, model, t1, out):
+    """Is the map's metric a result? The peak ball load at the paper's point (the model as
+    given: 40 µm, e 0.9) at two tolerances (`jaxbearing.metrics.converged`); written to
+    ``OUT/convergence.json``."""
+    import json
+
+    found = jb.metrics.converged(model, jb.metrics.peak_ball_load, t1, rtols=(1e-8, 1e-10))
+    values = ", ".join(f"{v:.2f} N" for v in found.values)
+    verdict = "converged" if found.converged else "NOT converged: tighten the tolerances or shorten the span"
+    print(f"peak ball load at the paper's point, rtol 1e-8 and 1e-10: {values}; spread "
+          f"{found.spread:.1e} ({verdict})")
+    record = {"metric": "peak_ball_load", "rtols": found.rtols, "values_N": found.values,
+              "spread": found.spread, "converged": found.converged}
+    (out / "convergence.json").write_text(json.dumps(record, indent=2))
 
 
 def _report_speed(ds, wall):

@@ -137,6 +137,32 @@ def test_the_compiled_solve_goes_into_the_persistent_cache(tmp_path):
     assert any(p.name.startswith("jit__simulate-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
 
 
+_SENSITIVITY = """
+import sys
+import jax
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_compilation_cache_dir", sys.argv[1])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
+import jaxbearing as jb
+model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth"), speed=100.0)
+value, grad = jb.sensitivity(model, jb.metrics.rms_bearing_force, ["bearing.clearance"], 0.005)
+try:
+    jb.sensitivity(model, jb.metrics.rms_bearing_force, ["bearing.clearance"], 0.005, max_steps=5)
+except jb.SimulationError as err:
+    print("raised:", err)
+"""
+
+
+def test_a_sensitivity_goes_into_the_persistent_cache_and_raises_on_the_host(tmp_path):
+    """`jb.sensitivity`'s compiled derivative holds no host callback (the solve's failures come
+    back as its result code, raised after the call), so a second process reuses it; a failure
+    still raises the simulation's own error."""
+    done = subprocess.run([sys.executable, "-c", _SENSITIVITY, str(tmp_path)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert any(p.name.startswith("jit__value_and_grad-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
+    assert "raised: The simulation stopped at t = " in done.stdout
+
+
 def test_no_private_apis_or_compiler_tricks_in_the_package():
     """Plain, public JAX: no `jax._src`, no private diffrax names, no ctypes, no platform-dependent
     branches or library calls that steer XLA's passes."""

@@ -50,6 +50,9 @@ def test_dense_map_with_the_one_loop_solve(tmp_path):
     printed = re.search(r"peak_ball_load: largest (\d+) N", stdout)
     assert printed and int(printed[1]) == round(float(ds.peak_ball_load.max()))
     assert (tmp_path / "peak_ball_load.png").stat().st_size > 10_000
+    convergence = json.loads((tmp_path / "convergence.json").read_text())  # the paper's point
+    assert convergence["converged"] and convergence["spread"] < 1e-3
+    assert "peak ball load at the paper's point, rtol 1e-8 and 1e-10" in stdout
 
 
 @pytest.mark.slow  # ~150 s: two reverse-mode compilations of the paper's case

@@ -151,7 +151,7 @@ def test_sensitivity_defaults_to_the_derivative_tolerance(monkeypatch):
 
     def spy(model, x, metric, names, t1, ts, mode, simulate_kwargs):  # in place of the compiled solve
         seen.append(simulate_kwargs["stepsize_controller"])
-        return jnp.zeros(()), jnp.zeros((1,))
+        return jnp.zeros(()), jnp.zeros((1,)), jnp.zeros((), bool)  # value, gradient, failed
 
     monkeypatch.setattr(_tune, "_value_and_grad", spy)
     model = rotor_model()
@@ -167,7 +167,7 @@ def test_tune_warns_when_the_loss_jumps():
     def loss(m):  # x = clearance / 40 µm; SGD at 5 multiplies x - 0.5 by -9 a step
         return (m.bearing.clearance / 4e-5 - 0.5) ** 2
 
-    with pytest.warns(jb._tune.TuneWarning, match=r"the loss jumped above 10 times the previous step's at step 1, 2 "):
+    with pytest.warns(jb.TuneWarning, match=r"the loss jumped above 10 times the previous step's at step 1, 2 "):
         result = jb.tune(loss, model, ["bearing.clearance"], optax.sgd(5.0), 2)
     assert float(result.loss) == pytest.approx(0.25) and result.values["bearing.clearance"] == 4e-5  # step 0
     assert result.invalid_steps == () and len(result.notes) == 1
@@ -176,7 +176,7 @@ def test_tune_warns_when_the_loss_jumps():
 def test_tune_warns_when_the_gradient_is_zero():
     """A loss that goes flat (no load: a hinge at 50 µm) past the first step."""
     model = jb.cases.xu2014()
-    with pytest.warns(jb._tune.TuneWarning, match=r"the gradient is zero \(or the loss 0\) at step 1, 2 .*"
+    with pytest.warns(jb.TuneWarning, match=r"the gradient is zero \(or the loss 0\) at step 1, 2 .*"
                       r"no contact/no load in the window\?"):
         result = jb.tune(lambda m: jax.nn.relu(5e-5 - m.bearing.clearance) / 1e-5, model,
                          ["bearing.clearance"], optax.sgd(1.0), 2)
@@ -190,7 +190,7 @@ def test_tune_stops_at_a_non_finite_loss():
         c = m.bearing.clearance / 4e-5
         return jnp.where(c > 0.5, (c - 0.75) ** 2 * 4, jnp.nan)
 
-    with pytest.warns(jb._tune.TuneWarning, match=r"step 1 .* is not valid: the loss or its gradient is "
+    with pytest.warns(jb.TuneWarning, match=r"step 1 .* is not valid: the loss or its gradient is "
                       r"not finite\. tune stopped there .* returns the best valid iterate, step 0"):
         result = jb.tune(loss, model, ["bearing.clearance"], optax.sgd(0.5), 5)
     assert result.invalid_steps == (1,)
@@ -207,7 +207,7 @@ def test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance():
     def loss(m):
         return rotor_metric(jb.simulate(m, 0.02, ROTOR_TS, **ROTOR_KW))
 
-    with pytest.warns(jb._tune.TuneWarning, match=r"step 1 .* is not valid: its evaluation failed "
+    with pytest.warns(jb.TuneWarning, match=r"step 1 .* is not valid: its evaluation failed "
                       r"\(bearing clearance must .*\)\. tune stopped there"):
         result = jb.tune(loss, model, ["bearing.clearance"], optax.adam(1000.0), 3)
     assert result.invalid_steps == (1,)

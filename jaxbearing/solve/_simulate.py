@@ -343,14 +343,15 @@ def _checked_span(t0, t1):
     for name, t in (("t0", t0), ("t1", t1)):
         if isinstance(t, (str, bytes, bool)):
             raise ValueError(f"{name} must be a number [s]; got {t!r}.")
-    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
-    if is_concrete(t0, t1):
+    if is_concrete(t0, t1):  # known in Python (a number stays known even under a caller's trace)
         for name, t in (("t0", t0), ("t1", t1)):
-            if t.ndim or not np.isfinite(np.asarray(t)):
-                raise ValueError(f"{name} must be a finite number [s]; got {name} = {t}.")
-        if not np.asarray(t1) > np.asarray(t0):
+            value = np.asarray(t, np.float64)
+            if value.ndim or not np.isfinite(value):
+                raise ValueError(f"{name} must be a finite number [s]; got {name} = {value}.")
+        if not np.asarray(t1, np.float64) > np.asarray(t0, np.float64):
             raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
-        return t0, t1
+        return jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
     finite = jnp.isfinite(t0) & jnp.isfinite(t1)
     return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
 
