@@ -124,14 +124,16 @@ def envelope(t, y, bins: int):
     runs of consecutive samples, in time order: drawn, the same picture as every sample at any
     width up to ``bins`` pixels (each extreme, e.g. a 1 us impact peak, is kept), with about
     2 ``bins`` points instead of millions. Fewer than 2 ``bins`` samples are returned as they are."""
-    t, y = np.asarray(t), np.asarray(y)
+    t, y = np.asarray(t), np.asarray(y, dtype=float)
     if t.size <= 2 * bins:
         return t, y
-    edges = np.linspace(0, t.size, bins + 1).astype(int)
-    runs = [y[a:b] for a, b in zip(edges[:-1], edges[1:])]
-    lows = [a + int(np.nanargmin(r)) if np.isfinite(r).any() else a for a, r in zip(edges[:-1], runs)]
-    highs = [a + int(np.nanargmax(r)) if np.isfinite(r).any() else a for a, r in zip(edges[:-1], runs)]
-    keep = np.unique(np.concatenate([lows, highs]))
+    k = -(-t.size // bins)  # samples a run; the last run is padded
+    padded = np.concatenate([y, np.full(k * bins - y.size, np.nan)]).reshape(bins, k)
+    finite = np.isfinite(padded)
+    start = k * np.arange(bins)
+    lows = start + np.argmin(np.where(finite, padded, np.inf), axis=1)
+    highs = start + np.argmax(np.where(finite, padded, -np.inf), axis=1)
+    keep = np.unique(np.minimum(np.concatenate([lows, highs]), t.size - 1))
     return t[keep], y[keep]
 
 
