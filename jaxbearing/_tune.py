@@ -116,7 +116,8 @@ def sensitivity(
     names = tuple(names) if not isinstance(names, str) else names
     x = _values(model, names, "to be differentiated")
     value, grad, failed = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
-    if bool(failed) or not np.isfinite(np.asarray(value)) or not np.all(np.isfinite(np.asarray(grad))):
+    finite = np.all(np.isfinite(np.asarray(value))) and np.all(np.isfinite(np.asarray(grad)))
+    if bool(failed) or not finite:
         _raise_cause(model, metric, t1, ts, simulate_kwargs)
     return value, {n: grad[i] for i, n in enumerate(names)}
 
@@ -125,10 +126,10 @@ def _raise_cause(model, metric, t1, ts, simulate_kwargs):
     """The error of a failed `sensitivity`: the simulation's or the metric's own, found by
     running them on the host at the design point; else a `ValueError` saying what was not
     finite."""
-    value = metric(simulate(model, t1, ts, **simulate_kwargs))
+    value = np.asarray(metric(simulate(model, t1, ts, **simulate_kwargs)))
     raise ValueError(
         f"the derivatives of the metric at this design point are not finite (the metric is "
-        f"{float(value)!r}): a parameter may sit where the metric does not depend smoothly on "
+        f"{value}): a parameter may sit where the metric does not depend smoothly on "
         "it (an exact peak that changes hands, a contact that just touches)."
     )
 
