@@ -151,10 +151,7 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     # one tangent at a time (`lax.map` over the unit vectors: one compiled jvp), not a batch of
     # them as `jax.jacfwd` takes: batched tangents cost more per tangent on a CPU than a
     # tangent alone, and compile longer (docs/performance.md)
-    def tangent(v):
-        value, derivative, failed = jax.jvp(f, (x,), (v,), has_aux=True)
-        return value, derivative, failed
-
+    tangent = lambda v: jax.jvp(f, (x,), (v,), has_aux=True)  # noqa: E731 (value, derivative, failed)
     values, grad, failed = jax.lax.map(tangent, jnp.eye(x.shape[0], dtype=x.dtype))
     return values[0], grad, jnp.any(failed)
 

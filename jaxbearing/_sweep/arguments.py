@@ -66,8 +66,8 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     options = _checked_options(sim_kwargs.get("options"))
     t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
     window_stops(options.window_edges, model.window_start)
-    start = None if "window_start" in names else model.window_start  # a stop, unless swept
-    options = with_metric_edges(options, items, t0, t1, start)
+    fixed_start = None if "window_start" in names else model.window_start  # a stop, unless swept
+    options = with_metric_edges(options, items, t0, t1, fixed_start)
     if options.fatigue is None:
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
@@ -76,7 +76,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     sim_kwargs["options"] = options
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
-    start = model.window_start
+    start = fixed_start
     if metrics is None and start is not None and t1 <= float(start):
         raise ValueError(
             f"The standard metrics read the model's window from t = {float(start):g} s "

@@ -89,13 +89,8 @@ def labels(model) -> list[str]:
         out += [model.joint_label(i)] * joint.n_equations
     for i, force in enumerate(model.forces):
         if isinstance(force, BearingJoint):
-            bodies = "–".join(_body_name(model, b) for b in (force.outer_body, force.inner_body))
-            out += [f"force {i} (BearingJoint, {bodies})"] * 2
+            out += [f"force {i} (BearingJoint, {model.bodies_label(force.outer_body, force.inner_body)})"] * 2
     return out
-
-
-def _body_name(model, body: int) -> str:
-    return "ground" if body < 0 else model.body_names[body]
 
 
 @eqx.filter_jit

@@ -316,7 +316,7 @@ class Mechanism(eqx.Module):
         t0 = jnp.asarray(t0, self.q0.dtype)
         for i, joint in enumerate(self.joints):
             pos = jnp.max(jnp.abs(joint(self.q0, t0)))
-            rate = joint.jacobian(self.q0, t0) @ self.qd0 + joint.time_derivative(self.q0, t0)
+            rate = jnp.max(jnp.abs(joint.jacobian(self.q0, t0) @ self.qd0 + joint.time_derivative(self.q0, t0)))
             label = self.joint_label(i)
             fix = "; model.assemble(q_guess, qd_guess, t0) finds a consistent state"
             rules.append(
@@ -325,9 +325,9 @@ class Mechanism(eqx.Module):
                  f"(m or rad){fix}", pos)
             )
             rules.append(
-                (jnp.max(jnp.abs(rate)) > VELOCITY_TOLERANCE,
+                (rate > VELOCITY_TOLERANCE,
                  f"initial velocities qd0 violate {label} at t0 by more than {VELOCITY_TOLERANCE} "
-                 f"(m/s or rad/s){fix}", jnp.max(jnp.abs(rate)))
+                 f"(m/s or rad/s){fix}", rate)
             )
         for i, contact in enumerate(self.contacts):
             overlap = contact.gap(self.q0, self.qd0)[0]
@@ -345,8 +345,11 @@ class Mechanism(eqx.Module):
         """``"joint i (Type, body–body)"`` by the bodies' names."""
         joint = self.joints[i]
         bodies = (joint.body_i, joint.body_j) if isinstance(joint, Revolute) else (joint.body,)
-        names = "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
-        return f"joint {i} ({type(joint).__name__}, {names})"
+        return f"joint {i} ({type(joint).__name__}, {self.bodies_label(*bodies)})"
+
+    def bodies_label(self, *bodies: int) -> str:
+        """The bodies' names joined by dashes, ``GROUND`` as "ground"."""
+        return "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
 
     def __check_init__(self):
         _checks.raise_if_concrete(self.parameter_violations())
