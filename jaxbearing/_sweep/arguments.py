@@ -76,7 +76,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     sim_kwargs["options"] = options
     check_points(model, names, points, t0)
     ts = output_times(items, t0, t1, ts)
-    start = fixed_start
+    start = model.window_start
     if metrics is None and start is not None and t1 <= float(start):
         raise ValueError(
             f"The standard metrics read the model's window from t = {float(start):g} s "
