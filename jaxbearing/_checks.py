@@ -69,15 +69,17 @@ def as_floats(*specs) -> tuple[jax.Array, ...]:
 
 
 def float_leaves(tree):
-    """``tree`` with every number leaf (a Python or NumPy number or NumPy array, as
-    `eqx.tree_at` or a user may put in a model) as a float64 JAX array, so that a jitted solve
-    sees it as a value, not as part of its compiled program: another value compiles nothing.
-    Booleans stay as they are."""
+    """``tree`` with every number leaf (a Python or NumPy number or array, or a JAX array, as
+    `eqx.tree_at` or a user may put in a model) as a float64 JAX array that is not weakly typed
+    (``jnp.asarray(float("nan"))`` is), so that a jitted solve sees it as a value, not as part
+    of its compiled program: another value compiles nothing. Booleans stay as they are."""
 
     def convert(x):
-        if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.number, np.ndarray)):
+        if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.number, np.ndarray, jax.Array)):
             return x
-        if isinstance(x, np.ndarray) and x.dtype.kind not in "iuf":
+        if isinstance(x, (np.ndarray, jax.Array)) and x.dtype.kind not in "iuf":
+            return x
+        if isinstance(x, jax.Array) and x.dtype == jnp.float64 and not x.weak_type:
             return x
         return jnp.asarray(x, jnp.float64)
 
