@@ -11,10 +11,15 @@ returned by a ``violations()`` method; on top of them every floating leaf must b
   host callback, so the compiled solve can be cached), raised on the host after the call with
   the rule's message (`raise_if_concrete`); a run given traced values (your own `jax.jit`,
   `jax.vmap`) raises it with `eqx.error_if` around the solve when ``throw=True``.
+
+The arguments of a solve (span, tolerances, output times, counts, window edges) are checked here
+as well (at the end: `check_count`, `checked_span` and what follows), with the rules a run must
+meet (`start_rules`), for `simulate`, `simulate_one_loop` and `sweep` alike.
 """
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterable
 
 import equinox as eqx
@@ -194,3 +199,116 @@ def balls_fit(n_balls, ball_diameter, pitch_diameter):
         ),
         ball_diameter,
     )
+
+
+# the arguments of a solve (`jaxbearing.simulate`, `simulate_one_loop`, `sweep`)
+
+
+def check_count(name: str, value, optional: bool = False) -> None:
+    """A `ValueError` unless ``value`` (the argument ``name``: ``max_steps``, a `SolveOptions`
+    field) is an integer of at least 1, or None where ``optional``."""
+    if optional and value is None:
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        allowed = "None or an integer" if optional else "an integer"
+        raise ValueError(f"{name} must be {allowed} of at least 1; got {value!r}.")
+
+
+def checked_span(t0, t1):
+    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
+    or t1 <= t0, an error at run time if traced and not finite (the solve checks t1 > t0:
+    `start_rules`)."""
+    for name, t in (("t0", t0), ("t1", t1)):
+        if isinstance(t, (str, bytes, bool)):
+            raise ValueError(f"{name} must be a number [s]; got {t!r}.")
+    if is_concrete(t0, t1):  # known in Python (a number stays known even under a caller's trace)
+        for name, t in (("t0", t0), ("t1", t1)):
+            value = np.asarray(t, np.float64)
+            if value.ndim or not np.isfinite(value):
+                raise ValueError(f"{name} must be a finite number [s]; got {name} = {value}.")
+        if not np.asarray(t1, np.float64) > np.asarray(t0, np.float64):
+            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
+        return jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
+    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
+
+
+def checked_tolerances(rtol, atol):
+    """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
+    `ValueError` now if they are concrete and not finite, negative, or both zero."""
+    rtol, atol = jnp.asarray(rtol, jnp.float64), jnp.asarray(atol, jnp.float64)
+    if is_concrete(rtol, atol):
+        values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}
+        for name, x in values.items():
+            if x.ndim or not (np.isfinite(x) and x >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
+        if not values["rtol"] < 1:
+            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {values['rtol']}.")
+        if not values["rtol"] + values["atol"] > 0:
+            raise ValueError("rtol and atol must not both be zero: the step control needs one.")
+    return rtol, atol
+
+
+def checked_ts(ts, t0, t1):
+    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
+    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `start_rules`)."""
+    single = getattr(ts, "dtype", None) == np.float32
+    if not isinstance(ts, jax.Array) and np.asarray(ts).dtype.kind not in "iuf":
+        raise ValueError(f"ts must be an array of numbers [s]; got {ts!r}.")
+    ts = jnp.asarray(ts, jnp.float64)
+    if ts.ndim != 1 or ts.shape[0] == 0:
+        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
+    if not is_concrete(ts, t0, t1):
+        return ts
+    t = np.asarray(ts)
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
+    back = np.flatnonzero(t[1:] < t[:-1])
+    if back.size:
+        i = back[0]
+        raise ValueError(
+            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
+            f"after ts[{i}] = {t[i]:.6g}."
+        )
+    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
+    if out.size:
+        i = out[0]
+        hint = " (float32 times round off t0 and t1: give ts in float64)" if single else ""
+        raise ValueError(
+            f"ts must lie within [t0, t1] = [{float(t0)!r}, {float(t1)!r}] s; got ts[{i}] = "
+            f"{float(t[i])!r}{hint}."
+        )
+    return ts
+
+
+def window_stops(window_edges, window_start=None) -> jax.Array:
+    """The stops a solve adds to t1: the model's ``window_start`` (unless None) and the
+    ``window_edges`` [s]; a `ValueError` unless those are a tuple (or list) of finite numbers."""
+    wrong = ValueError(
+        f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
+    )
+    if not isinstance(window_edges, (tuple, list)) or any(isinstance(e, (bool, str)) for e in window_edges):
+        raise wrong
+    start = () if window_start is None else (window_start,)
+    try:
+        stops = jnp.asarray(start + tuple(window_edges), jnp.float64)
+    except (TypeError, ValueError):
+        raise wrong from None
+    if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):
+        raise wrong
+    return stops
+
+
+def start_rules(model, t0, t1, ts=None) -> list:
+    """Every rule a run must meet (as `any_violated` and `enforce` take them): the model's at
+    ``t0``, t1 > t0, and the output times ``ts`` finite, increasing and within [t0, t1]."""
+    rules = model.violations(t0)
+    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
+    if ts is not None:
+        rules.append(
+            ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
+             "ts must be finite, increasing and lie within [t0, t1]", ts)
+        )
+    return rules

@@ -368,7 +368,7 @@ def test_traced_nan_output_times_are_checked():
 
 
 def test_traced_non_finite_times_are_checked():
-    from jaxbearing.solve._simulate import _checked_span
+    from jaxbearing._checks import checked_span as _checked_span
 
     with pytest.raises(Exception, match=r"t0 and t1 must be finite \[s\]"):
         jax.jit(lambda t1: _checked_span(0.0, t1)[1])(jnp.inf)

@@ -20,7 +20,8 @@ import numpy as np
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
-from ..solve._simulate import SEGMENT_STEPS, _checked_controller, _checked_options, _checked_span, _checked_ts, window_stops
+from .._checks import checked_span, checked_ts, window_stops
+from ..solve._simulate import SEGMENT_STEPS, _checked_controller, _checked_options
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
@@ -64,7 +65,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     solve = driver_of(items, ts)
     sim_kwargs = simulate_kwargs_of(simulate_kwargs)
     options = _checked_options(sim_kwargs.get("options"))
-    t0, t1 = (float(t) for t in _checked_span(options.t0, t1))
+    t0, t1 = (float(t) for t in checked_span(options.t0, t1))
     window_stops(options.window_edges, model.window_start)
     fixed_start = None if "window_start" in names else model.window_start  # a stop, unless swept
     options = with_metric_edges(options, items, t0, t1, fixed_start)
@@ -220,7 +221,7 @@ def output_times(items, t0, t1, ts) -> np.ndarray:
     if ts is None:
         dense = any(needs_samples(fn) for _, fn in items)
         return np.linspace(t0, t1, DEFAULT_SAMPLES if dense else 2)
-    return np.asarray(_checked_ts(ts, t0, t1))
+    return np.asarray(checked_ts(ts, t0, t1))
 
 
 def simulate_kwargs_of(kwargs):

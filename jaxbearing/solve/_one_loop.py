@@ -30,8 +30,6 @@ from ._simulate import (
     core_setup,
     solution,
     solve_arguments,
-    start_rules,
-    window_stops,
 )
 
 
@@ -61,17 +59,18 @@ def simulate_one_loop(
     raises (use `simulate`).
     """
     a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
-    stops = window_stops(a.options.window_edges, a.model.window_start)
+    stops = _checks.window_stops(a.options.window_edges, a.model.window_start)
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
     )
-    return _raise_on_failure(sol, a.t1, lambda: start_rules(a.model, a.t0, a.t1)) if throw else sol
+    rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
+    return _raise_on_failure(sol, a.t1, rules) if throw else sol
 
 
 @eqx.filter_jit
 def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
-    invalid = _checks.any_violated(start_rules(model, t0, t1))
+    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1))
     y0 = jnp.concatenate([model.q0, model.qd0])
     setup = core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, "lax")
     state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)

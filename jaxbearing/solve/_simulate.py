@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import functools
 import math
-import numbers
 from typing import NamedTuple
 
 import diffrax
@@ -24,7 +23,6 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optimistix as optx
 
 from .. import _checks
@@ -85,7 +83,7 @@ def default_controller(rtol=RTOL, atol=ATOL) -> diffrax.PIDController:
     proportional and integral coefficients 0.3, which reject fewer steps than a plain I
     controller on the paper's case with impact, and the error tolerances ``rtol`` and ``atol``
     on the state (m, rad, m/s). Other tolerances compile nothing new."""
-    rtol, atol = _checked_tolerances(rtol, atol)
+    rtol, atol = _checks.checked_tolerances(rtol, atol)
     return diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
 
@@ -131,7 +129,7 @@ def simulate(
     """
     a = solve_arguments("simulate", model, t1, solver, stepsize_controller, max_steps, options)
     model, options, t0, t1, solver, stepsize_controller = a.model, a.options, a.t0, a.t1, a.solver, a.controller
-    ts = _checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
+    ts = _checks.checked_ts(jnp.linspace(t0, t1, 1001) if ts is None else ts, t0, t1)
     n_out = ts.shape[0]
     ts = _bucketed(ts)
     sizes = _segmentation(model, options, a.span, ts) + (a.max_onsets,)
@@ -147,13 +145,13 @@ def simulate(
         solver,
         stepsize_controller,
         jnp.asarray(max_steps),  # an array, like rtol and atol: another value compiles nothing
-        window_stops(options.window_edges, model.window_start),
+        _checks.window_stops(options.window_edges, model.window_start),
         options.fatigue is not False,
         sizes,
         None if progress is None else label_key(progress),
     )
     if throw:
-        sol = _raise_on_failure(sol, t1, lambda: start_rules(model, t0, t1, ts))
+        sol = _raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts))
     return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
 
 
@@ -179,9 +177,9 @@ def solve_arguments(caller: str, model, t1, solver, controller, max_steps, optio
     model = _checks.float_leaves(model)  # a Python float set by eqx.tree_at compiles nothing
     options = _checked_options(options)
     span = (options.t0, t1)
-    t0, t1 = _checked_span(options.t0, t1)
-    _check_max_steps(max_steps)
-    _check_size("max_onsets", options.max_onsets)
+    t0, t1 = _checks.checked_span(options.t0, t1)
+    _checks.check_count("max_steps", max_steps)
+    _checks.check_count("max_onsets", options.max_onsets, optional=True)
     max_onsets = default_max_onsets(*span) if options.max_onsets is None else int(options.max_onsets)
     solver = default_solver() if solver is None else solver
     controller = _checked_controller(controller)
@@ -189,18 +187,11 @@ def solve_arguments(caller: str, model, t1, solver, controller, max_steps, optio
     return SolveArguments(model, options, span, t0, t1, solver, controller, max_onsets)
 
 
-def _check_size(name: str, value) -> None:
-    """A `ValueError` unless ``value`` (the `SolveOptions` field ``name``) is None or an integer
-    of at least 1."""
-    if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1):
-        raise ValueError(f"{name} must be None or an integer of at least 1; got {value!r}.")
-
-
 def _segmentation(model, options: SolveOptions, span, ts) -> tuple[int, int, int]:
     """(max_segments, segment_steps, output_block) of ``options``, defaults filled in; a
     `ValueError` for a value below 1."""
     for name in ("max_segments", "segment_steps", "output_block"):
-        _check_size(name, getattr(options, name))
+        _checks.check_count(name, getattr(options, name), optional=True)
     segment_steps = SEGMENT_STEPS if options.segment_steps is None else int(options.segment_steps)
     max_segments = options.max_segments
     if max_segments is None:
@@ -295,114 +286,9 @@ def _checked_controller(controller):
             f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
         )
     if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
-        tolerances = _checked_tolerances(controller.rtol, controller.atol)
+        tolerances = _checks.checked_tolerances(controller.rtol, controller.atol)
         controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
     return controller
-
-
-def _check_max_steps(max_steps):
-    """A `ValueError` unless ``max_steps`` is an integer >= 1."""
-    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
-        raise ValueError(f"max_steps must be an integer of at least 1; got {max_steps!r}.")
-
-
-def window_stops(window_edges, window_start=None) -> jax.Array:
-    """The stops a solve adds to t1: the model's ``window_start`` (unless None) and the
-    ``window_edges`` [s]; a `ValueError` unless those are a tuple (or list) of finite numbers."""
-    wrong = ValueError(
-        f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
-    )
-    if not isinstance(window_edges, (tuple, list)) or any(isinstance(e, (bool, str)) for e in window_edges):
-        raise wrong
-    start = () if window_start is None else (window_start,)
-    try:
-        stops = jnp.asarray(start + tuple(window_edges), jnp.float64)
-    except (TypeError, ValueError):
-        raise wrong from None
-    if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):
-        raise wrong
-    return stops
-
-
-def start_rules(model, t0, t1, ts=None) -> list:
-    """Every rule a run must meet (`_checks`): the model's at ``t0``, t1 > t0, and the output
-    times ``ts`` finite, increasing and within [t0, t1]."""
-    rules = model.violations(t0)
-    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
-    if ts is not None:
-        rules.append(
-            ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
-             "ts must be finite, increasing and lie within [t0, t1]", ts)
-        )
-    return rules
-
-
-def _checked_span(t0, t1):
-    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
-    or t1 <= t0, an error at run time if traced and not finite (`_simulate` checks t1 > t0)."""
-    for name, t in (("t0", t0), ("t1", t1)):
-        if isinstance(t, (str, bytes, bool)):
-            raise ValueError(f"{name} must be a number [s]; got {t!r}.")
-    if is_concrete(t0, t1):  # known in Python (a number stays known even under a caller's trace)
-        for name, t in (("t0", t0), ("t1", t1)):
-            value = np.asarray(t, np.float64)
-            if value.ndim or not np.isfinite(value):
-                raise ValueError(f"{name} must be a finite number [s]; got {name} = {value}.")
-        if not np.asarray(t1, np.float64) > np.asarray(t0, np.float64):
-            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
-        return jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
-    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
-    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
-    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
-
-
-def _checked_tolerances(rtol, atol):
-    """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
-    `ValueError` now if they are concrete and not finite, negative, or both zero."""
-    rtol, atol = jnp.asarray(rtol, jnp.float64), jnp.asarray(atol, jnp.float64)
-    if is_concrete(rtol, atol):
-        values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}
-        for name, x in values.items():
-            if x.ndim or not (np.isfinite(x) and x >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
-        if not values["rtol"] < 1:
-            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {values['rtol']}.")
-        if not values["rtol"] + values["atol"] > 0:
-            raise ValueError("rtol and atol must not both be zero: the step control needs one.")
-    return rtol, atol
-
-
-def _checked_ts(ts, t0, t1):
-    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
-    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `_simulate`)."""
-    single = getattr(ts, "dtype", None) == np.float32
-    if not isinstance(ts, jax.Array) and np.asarray(ts).dtype.kind not in "iuf":
-        raise ValueError(f"ts must be an array of numbers [s]; got {ts!r}.")
-    ts = jnp.asarray(ts, jnp.float64)
-    if ts.ndim != 1 or ts.shape[0] == 0:
-        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
-    if not is_concrete(ts, t0, t1):
-        return ts
-    t = np.asarray(ts)
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
-    back = np.flatnonzero(t[1:] < t[:-1])
-    if back.size:
-        i = back[0]
-        raise ValueError(
-            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
-            f"after ts[{i}] = {t[i]:.6g}."
-        )
-    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
-    if out.size:
-        i = out[0]
-        hint = " (float32 times round off t0 and t1: give ts in float64)" if single else ""
-        raise ValueError(
-            f"ts must lie within [t0, t1] = [{float(t0)!r}, {float(t1)!r}] s; got ts[{i}] = "
-            f"{float(t[i])!r}{hint}."
-        )
-    return ts
 
 
 def _vector_field(model):
@@ -434,7 +320,7 @@ def core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigu
 @eqx.filter_jit
 def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, sizes, progress, kind):
     max_segments, segment_steps, block, max_onsets = sizes
-    invalid = _checks.any_violated(start_rules(model, t0, t1, ts))
+    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
     setup = core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, kind)
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
