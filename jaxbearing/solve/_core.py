@@ -304,20 +304,9 @@ def _dense_shape(s: Setup, t0, t1, y0, args, solver_state):
 
 
 class _Outcome(NamedTuple):
-    """What an iteration's branch decides (`_locate`, `_attempt`)."""
+    """What an iteration's branch (`_locate`, `_attempt`) reports besides the next state (whose
+    fields from ``t`` to ``root_steps`` it sets)."""
 
-    t: jax.Array
-    y: jax.Array
-    solver_state: object
-    made_jump: jax.Array
-    h: jax.Array
-    control: object
-    switches: tuple  # (approach, in_contact, engaged)
-    value: jax.Array  # the event value at (t, y)
-    locating: jax.Array
-    step: tuple  # (step_end, step_dense, step_h) of the held step
-    root: ITPState
-    root_steps: jax.Array
     row: Row  # the step recorded by this iteration (``row.recorded``)
     onset: tuple  # (time, approach speed, contact index, any)
     separated: jax.Array  # (n_contacts,) bool
@@ -330,6 +319,11 @@ class _Outcome(NamedTuple):
 
 def _args(x: State):
     return (x.approach, x.in_contact, x.engaged)
+
+
+def _select(where, a, b):
+    """``a`` where ``where``, else ``b``, leaf by leaf of two trees of one structure."""
+    return jax.tree_util.tree_map(lambda u, v: jnp.where(where, u, v), a, b)
 
 
 def _stop(s: Setup, x: State):
@@ -346,7 +340,7 @@ def _no_onset(t):
     return nan, nan, jnp.asarray(-1), jnp.asarray(False)
 
 
-def _locate(s: Setup, x: State) -> _Outcome:
+def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
     """One root-finder step on the held step; where the bracket is narrow enough, the event."""
     model = s.model
     interpolation = _interpolation(s, x.t, x.step_end, x.step_dense)
@@ -373,24 +367,24 @@ def _locate(s: Setup, x: State) -> _Outcome:
     t_event, y_event, switches, onset, separated, overlap, value = jax.lax.cond(
         eqxi.unvmap_any(located), event, no_event
     )
-    keep = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(located, u, v), a, b)  # noqa: E731
     failure = RESULTS.where(lost, _NOT_LOCATED, RESULTS.successful)
     failure = RESULTS.where(located & overlap, RESULTS.contact_overlap, failure)
-    row = Row(located, x.t, t_event, x.step_end, x.step_dense, x.approach, x.engaged)
-    return _Outcome(
+    approach, in_contact, engaged = _select(located, switches, _args(x))
+    state = x._replace(
         t=jnp.where(located, t_event, x.t),
         y=jnp.where(located, y_event, x.y),
-        solver_state=x.solver_state,
         made_jump=x.made_jump | located,
         h=jnp.where(located, x.step_h, x.h),
-        control=x.control,
-        switches=keep(switches, _args(x)),
+        approach=approach,
+        in_contact=in_contact,
+        engaged=engaged,
         value=jnp.where(located, value, x.value),
         locating=~located,
-        step=(x.step_end, x.step_dense, x.step_h),
         root=root,
         root_steps=x.root_steps + 1,
-        row=row,
+    )
+    return state, _Outcome(
+        row=Row(located, x.t, t_event, x.step_end, x.step_dense, x.approach, x.engaged),
         onset=onset,
         separated=separated,
         at_stop=located & (t_event >= _stop(s, x)),
@@ -401,7 +395,7 @@ def _locate(s: Setup, x: State) -> _Outcome:
     )
 
 
-def _attempt(s: Setup, x: State) -> _Outcome:
+def _attempt(s: Setup, x: State) -> tuple[State, _Outcome]:
     """A step attempt: the solver's step to the proposed time, cut at the next stop, and the
     controller's verdict; an accepted step across an event starts locating it."""
     model, args = s.model, _args(x)
@@ -426,28 +420,31 @@ def _attempt(s: Setup, x: State) -> _Outcome:
     crossed = keep & (value_b > 0)
     accept = keep & ~crossed
     started = jax.lax.stop_gradient(itp_start(x.t, t_b, x.value, value_b, EVENT_TIME_TOLERANCE))
-    started = jax.tree_util.tree_map(lambda a, b: jnp.where(crossed, a, b), started, x.root)
     too_small = ~keep & (h_next < SMALLEST_STEP)
     # a step shrunk to nothing whose event value at its end is above `JUMP` holds a jump: a
     # contact switched on (``active_from``) while its surfaces overlap, whose force jumps too,
     # so that no step across is accepted
     failure = RESULTS.where(too_small, RESULTS.dt_min_reached, RESULTS.successful)
     failure = RESULTS.where(too_small & (value_b > JUMP), RESULTS.contact_overlap, failure)
-    choose = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(accept, u, v), a, b)  # noqa: E731
-    held = lambda a, b: jax.tree_util.tree_map(lambda u, v: jnp.where(crossed, u, v), a, b)  # noqa: E731
-    return _Outcome(
+    step_end, step_dense, step_h = _select(
+        crossed, (t_b, dense, h_next), (x.step_end, x.step_dense, x.step_h)
+    )
+    state = x._replace(
         t=jnp.where(accept, t_b, x.t),
         y=jnp.where(accept, y1, x.y),
-        solver_state=choose(solver_state, x.solver_state),
+        solver_state=_select(accept, solver_state, x.solver_state),
         made_jump=jnp.where(accept, False, x.made_jump),
         h=h_next,
         control=control,
-        switches=_args(x),
         value=jnp.where(accept, value_b, x.value),
         locating=crossed,
-        step=held((t_b, dense, h_next), (x.step_end, x.step_dense, x.step_h)),
-        root=started,
+        step_end=step_end,
+        step_dense=step_dense,
+        step_h=step_h,
+        root=_select(crossed, started, x.root),
         root_steps=jnp.zeros_like(x.root_steps),
+    )
+    return state, _Outcome(
         row=Row(accept, x.t, t_b, t_b, dense, x.approach, x.engaged),
         onset=_no_onset(x.t),
         separated=jnp.zeros_like(x.in_contact),
@@ -466,9 +463,9 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     a member whose condition is false.)"""
     model = s.model
     if model.contacts or model.n_switched_balls:
-        o = jax.lax.cond(x.locating, lambda x: _locate(s, x), lambda x: _attempt(s, x), x)
+        new, o = jax.lax.cond(x.locating, lambda x: _locate(s, x), lambda x: _attempt(s, x), x)
     else:
-        o = _attempt(s, x)
+        new, o = _attempt(s, x)
     row = o.row
     here = jnp.arange(s.stops.shape[0]) == x.cell
     rows = jax.tree_util.tree_map(lambda a: _row(a, here), (x.peaks, x.integrals, x.fatigue))
@@ -480,39 +477,20 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         ),
         lambda: (no_peaks(model), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
     )
-    rows = jax.tree_util.tree_map(lambda a, b: jnp.where(row.recorded, a, b), _add(rows, stats), rows)
+    rows = _select(row.recorded, _add(rows, stats), rows)
     into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731
     onset = o.located & o.onset[3]
-    separated = o.separated
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])
     slot = onset & (jnp.arange(x.onsets[0].shape[0]) == x.n_onsets)
     onsets = tuple(jnp.where(slot, v, a) for a, v in zip(x.onsets, o.onset[:3]))
-    spans, current = _spans(x, row.recorded, stats[0], separated, o.t, onset, o.onset[2])
-    stop = _stop(s, x)
-    at_stop = o.at_stop
-    reached = at_stop & (stop >= s.t1)
+    spans, current = _spans(x, row.recorded, stats[0], o.separated, new.t, onset, o.onset[2])
+    reached = o.at_stop & (_stop(s, x) >= s.t1)
     out_of_steps = o.stepped & (x.steps + 1 >= s.max_steps) & ~reached
     failure = RESULTS.where(out_of_steps, RESULTS.max_steps_reached, o.failure)
     failure = RESULTS.where(overflow, RESULTS.max_onsets_reached, failure)
     failed = failure != RESULTS.successful
-    state = State(
-        t=o.t,
-        y=o.y,
-        solver_state=o.solver_state,
-        made_jump=o.made_jump,
-        h=o.h,
-        control=o.control,
-        cell=x.cell + (at_stop & ~reached),
-        approach=o.switches[0],
-        in_contact=o.switches[1],
-        engaged=o.switches[2],
-        value=o.value,
-        locating=o.locating,
-        step_end=o.step[0],
-        step_dense=o.step[1],
-        step_h=o.step[2],
-        root=o.root,
-        root_steps=o.root_steps,
+    state = new._replace(
+        cell=x.cell + (o.at_stop & ~reached),
         peaks=jax.tree_util.tree_map(into, x.peaks, rows[0]),
         integrals=into(x.integrals, rows[1]),
         fatigue=into(x.fatigue, rows[2]),
