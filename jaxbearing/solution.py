@@ -1,11 +1,14 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
 `Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
 `SimulationError`) and the columns of the statistics, each defined once.
-The integrator (`jaxbearing.solve`) writes these; `jaxbearing.metrics` and `jaxbearing.life`
-read them without importing the solver.
+The integrator (`jaxbearing.solve`) writes these (`assemble`: the `Solution` from the solve's
+final state and its outputs); `jaxbearing.metrics` and `jaxbearing.life` read them without
+importing the solver.
 """
 
 from __future__ import annotations
+
+import functools
 
 import diffrax
 import equinox as eqx
@@ -212,3 +215,90 @@ class Solution(eqx.Module):
     num_events: jax.Array
     window_start: jax.Array | None = None
     target: int | None = eqx.field(static=True, default=None)
+
+
+_PER_TIME = (
+    "ts", "q", "qd", "qdd", "ball_loads", "bearing_force", "cage_angle", "contact_force",
+    "penetration", "approach_speed", "drift",
+)
+
+
+def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solution:
+    """The `Solution` of a solve of ``model`` that ended in state ``x`` (the integrator core's
+    `State`) with ``result``: the per-time fields from ``outputs`` (at the output times ``ts``:
+    ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces the model has, keyed as
+    `_recording._forces` keys them), and from ``x`` the records: `SegmentStats` and
+    `FatigueStats` of the intervals between the ``stops`` [s] after t0, cut at the time reached
+    (peaks 0 and their times NaN in the intervals not reached), and the `Contacts`."""
+    t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)
+    t_end = jnp.minimum(stops, x.t)
+    valid = t_end > t_start  # the interval holds part of the solved span
+    reached = lambda rows, rest: jnp.where(valid[:, None], rows, rest)  # noqa: E731
+    peaks = x.peaks
+    segments = SegmentStats(
+        t_start,
+        t_end,
+        reached(peaks.values, 0.0),
+        x.integrals,
+        valid,
+        reached(peaks.times, jnp.nan),
+        reached(peaks.loads, 0.0),
+    )
+    fatigue = None
+    if x.fatigue.shape[-1]:  # (n_stops, 5 + 2 M): recorded, for a model with a bearing
+        m = (x.fatigue.shape[1] - 5) // 2
+        inner, outer = x.fatigue[:, 5 : 5 + m], x.fatigue[:, 5 + m :]
+        fatigue = FatigueStats(t_start, t_end, x.fatigue[:, :5], inner, outer, valid)
+    o, zeros = outputs, jnp.zeros_like(ts)
+    return Solution(
+        ts=ts,
+        q=o["q"],
+        qd=o["qd"],
+        qdd=o["qdd"],
+        ball_loads=o.get("ball_loads"),
+        bearing_force=o.get("bearing_force"),
+        cage_angle=o.get("cage"),
+        contact_force=o.get("contact_force", zeros),
+        penetration=o.get("penetration", zeros),
+        approach_speed=o["approach"],
+        drift=o["drift"],
+        contacts=_contacts(x),
+        segments=segments,
+        fatigue=fatigue,
+        result=result,
+        t_final=x.t,
+        num_steps=x.steps,
+        num_rejected_steps=x.rejected,
+        num_segments=n_segments,
+        num_events=x.events,
+        target=3 * model.contacts[0].body_k if model.contacts else None,
+        window_start=model.window_start,
+    )
+
+
+def _contacts(x) -> Contacts:
+    """The `Contacts` of the core's final state ``x``: its onsets (time, approach speed, contact
+    index) and their contacts' spans (end, peak force, peak time), each (max_onsets,)."""
+    time, speed, index = x.onsets
+    kept = jnp.arange(time.shape[0]) < x.n_onsets
+    end, peak, peak_time = x.spans
+    found = kept & (index == 0) & (peak > -jnp.inf)
+    return Contacts(
+        jnp.where(kept, time, jnp.nan),
+        jnp.where(kept, speed, jnp.nan),
+        jnp.where(kept, index, -1),
+        kept,
+        jnp.where(kept, end, jnp.nan),
+        jnp.where(found, peak, jnp.nan),
+        jnp.where(found, peak_time, jnp.nan),
+    )
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def first_rows(sol: Solution, n: int) -> Solution:
+    """``sol`` with its per-time fields cut to the first ``n`` output times (a solve padded its
+    output times to share a compiled solve: `solve._simulate._bucketed`)."""
+    fields = [f for f in _PER_TIME if getattr(sol, f) is not None]
+    return eqx.tree_at(
+        lambda s: [getattr(s, f) for f in fields], sol, [getattr(sol, f)[:n] for f in fields]
+    )

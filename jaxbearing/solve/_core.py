@@ -546,21 +546,3 @@ def _row(x, here):
     """The row of ``x`` (rows, ...) where the one-hot ``here`` is true: a sum of selects, which
     a batch evaluates elementwise (a vmapped index would be a gather)."""
     return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
-
-
-def contacts(x: State):
-    """`Contacts` fields from the final state: (time, approach speed, index, valid, end, peak
-    force, peak time), each (max_onsets,)."""
-    time, speed, index = x.onsets
-    kept = jnp.arange(time.shape[0]) < x.n_onsets
-    end, peak, peak_time = x.spans
-    found = kept & (index == 0) & (peak > -jnp.inf)
-    return (
-        jnp.where(kept, time, jnp.nan),
-        jnp.where(kept, speed, jnp.nan),
-        jnp.where(kept, index, -1),
-        kept,
-        jnp.where(kept, end, jnp.nan),
-        jnp.where(found, peak, jnp.nan),
-        jnp.where(found, peak_time, jnp.nan),
-    )

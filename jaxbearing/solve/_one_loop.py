@@ -22,15 +22,9 @@ import jax.numpy as jnp
 
 from .. import _checks
 from ..multibody.mechanism import Mechanism
-from ._core import advance, initial_state
+from ._core import advance
 from ._options import SolveOptions
-from ._simulate import (
-    INITIAL_STEP,
-    _raise_on_failure,
-    core_setup,
-    solution,
-    solve_arguments,
-)
+from ._simulate import _raise_on_failure, core_start, solution, solve_arguments
 
 
 def simulate_one_loop(
@@ -70,16 +64,15 @@ def simulate_one_loop(
 
 @eqx.filter_jit
 def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
-    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1))
-    y0 = jnp.concatenate([model.q0, model.qd0])
-    setup = core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, "lax")
-    state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
+    setup, state = core_start(
+        model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, max_onsets, "lax"
+    )
     final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
     final = eqxi.nondifferentiable_backward(
         final, msg="simulate_one_loop supports forward mode (jax.jvp, jax.jacfwd) only: use simulate for reverse mode."
     )
     ends = (
-        jnp.stack([y0, final.y]),
+        jnp.stack([state.y, final.y]),
         jnp.stack([state.approach, final.approach]),
         jnp.stack([state.engaged, final.engaged]),
     )

@@ -28,16 +28,9 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
-from ..solution import (
-    RESULTS,
-    Contacts,
-    FatigueStats,
-    SegmentStats,
-    SimulationError,
-    Solution,
-)
+from ..solution import RESULTS, SimulationError, Solution, assemble, first_rows
 from ._progress import label_key
-from ._core import ROOT_STEPS, Setup, _where_rows, contacts, initial_state
+from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
 from ._options import SolveOptions
 from ._recording import _accelerations, _forces
 from ._segments import (
@@ -152,7 +145,7 @@ def simulate(
     )
     if throw:
         sol = _raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts))
-    return sol if ts.shape[0] == n_out else _first_rows(sol, n_out)
+    return sol if ts.shape[0] == n_out else first_rows(sol, n_out)
 
 
 class SolveArguments(NamedTuple):
@@ -210,21 +203,6 @@ def _bucketed(ts):
     if n >= OUTPUT_BUCKET or not is_concrete(ts):
         return ts
     return jnp.concatenate([ts, jnp.broadcast_to(ts[-1], (OUTPUT_BUCKET - n,))])
-
-
-_PER_TIME = (
-    "ts", "q", "qd", "qdd", "ball_loads", "bearing_force", "cage_angle", "contact_force",
-    "penetration", "approach_speed", "drift",
-)
-
-
-@functools.partial(jax.jit, static_argnums=1)
-def _first_rows(sol: Solution, n: int) -> Solution:
-    """``sol`` with its per-time fields cut to the first ``n`` output times (`_bucketed`)."""
-    fields = [f for f in _PER_TIME if getattr(sol, f) is not None]
-    return eqx.tree_at(
-        lambda s: [getattr(s, f) for f in fields], sol, [getattr(sol, f)[:n] for f in fields]
-    )
 
 
 def _span(t0, t1) -> float:
@@ -303,9 +281,12 @@ def _vector_field(model):
     return diffrax.ODETerm(vector_field)
 
 
-def core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, kind) -> Setup:
-    """The core's `Setup` of one solve (both drivers)."""
-    return Setup(
+def core_start(
+    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
+):
+    """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
+    rule of the run (`_checks.start_rules`) is broken."""
+    setup = Setup(
         model=model,
         term=_vector_field(model),
         solver=for_loop_kind(solver, kind),
@@ -315,16 +296,18 @@ def core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigu
         max_steps=max_steps,
         fatigue=fatigue,
     )
+    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
+    y0 = jnp.concatenate([model.q0, model.qd0])
+    return setup, initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
 
 
 @eqx.filter_jit
 def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, sizes, progress, kind):
     max_segments, segment_steps, block, max_onsets = sizes
-    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
-    y0 = jnp.concatenate([model.q0, model.qd0])
-    setup = core_setup(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, kind)
+    setup, state = core_start(
+        model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
+    )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
-    state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
     final, used = jax.lax.scan(
         functools.partial(slot, driver), initial_carry(driver, state), jnp.arange(max_segments)
     )
@@ -337,54 +320,10 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fat
 
 
 def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
-    """The `Solution` of a run that ended in state ``x`` (`_core.State`) with ``result``, whose
-    outputs are ``rows`` (`_outputs`)."""
-    t_start, t_end, valid = _intervals(stops, t0, x.t)
-    segments = segment_stats(t_start, t_end, x.peaks, x.integrals, valid)
-    recorded = model.bearings and x.fatigue.shape[-1]
-    fatigue = _fatigue_stats(x.fatigue, t_start, t_end, valid) if recorded else None
-    return _outputs(
-        model, ts, rows, written, full, Contacts(*contacts(x)), segments, fatigue, result, x.t,
-        x.steps, x.rejected, n_segments, x.events,
-    )
-
-
-def _intervals(stops, t0, t_final):
-    """(t_start, t_end, valid) of the intervals between the stops [s], each (n_stops,), cut at
-    the time the solve reached; valid where an interval holds part of the solved span."""
-    t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), t_final)
-    t_end = jnp.minimum(stops, t_final)
-    return t_start, t_end, t_end > t_start
-
-
-def segment_stats(t_start, t_end, peaks, integrals, valid) -> SegmentStats:
-    """`SegmentStats` from the intervals' `Peaks` and integrals: peaks 0 and their times NaN in
-    the intervals not reached."""
-    return SegmentStats(
-        t_start,
-        t_end,
-        _where_rows(valid, peaks.values, 0.0),
-        integrals,
-        valid,
-        _where_rows(valid, peaks.times, jnp.nan),
-        _where_rows(valid, peaks.loads, 0.0),
-    )
-
-
-def _fatigue_stats(integrals, t_start, t_end, valid) -> FatigueStats:
-    """`FatigueStats` from the integrals of each stop interval (n_stops, 5 + 2 M)."""
-    m = (integrals.shape[1] - 5) // 2
-    inner, outer = integrals[:, 5 : 5 + m], integrals[:, 5 + m :]
-    return FatigueStats(t_start, t_end, integrals[:, :5], inner, outer, valid)
-
-
-def _outputs(
-    model, ts, rows, written, full, contacts, segments, fatigue, result, t_final, steps, rejected,
-    n_used, n_events,
-):
-    """The `Solution`: the states, approach speeds and engaged balls at the output times
-    (``rows(start, size)``, `_segments.output_rows`; the first ``written`` reached, the first
-    ``full`` in full blocks) and what is evaluated from them."""
+    """The `Solution` (`jaxbearing.solution.assemble`) of a run that ended in state ``x``
+    (`_core.State`) with ``result``: its records, and the states, approach speeds and engaged
+    balls at the output times (``rows(start, size)``, `_segments.output_rows`; the first
+    ``written`` reached, the first ``full`` in full blocks) and what is evaluated from them."""
     n = model.n_coordinates
 
     def at(t, y, a, e):
@@ -403,32 +342,8 @@ def _outputs(
         keep = lambda x, rest: _where_rows(reached, x, rest)  # noqa: E731
         return keep(y, start), keep(a, 0.0), keep(e, False)
 
-    o = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
-    zeros = jnp.zeros_like(ts)
-    return Solution(
-        ts=ts,
-        q=o["q"],
-        qd=o["qd"],
-        qdd=o["qdd"],
-        ball_loads=o.get("ball_loads"),
-        bearing_force=o.get("bearing_force"),
-        cage_angle=o.get("cage"),
-        contact_force=o.get("contact_force", zeros),
-        penetration=o.get("penetration", zeros),
-        approach_speed=o["approach"],
-        drift=o["drift"],
-        contacts=contacts,
-        segments=segments,
-        fatigue=fatigue,
-        result=result,
-        t_final=t_final,
-        num_steps=steps,
-        num_rejected_steps=rejected,
-        num_segments=n_used,
-        num_events=n_events,
-        target=3 * model.contacts[0].body_k if model.contacts else None,
-        window_start=model.window_start,
-    )
+    outputs = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
+    return assemble(model, x, outputs, ts, stops, t0, result, n_segments)
 
 
 def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
