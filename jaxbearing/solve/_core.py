@@ -26,6 +26,7 @@ each member selects its own, so a batch runs as one loop in which every member g
 
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import diffrax
@@ -94,15 +95,13 @@ def itp_step(state: ITPState, value) -> ITPState:
     x = state.next
     g = jnp.where(state.flip, -value, value)
     below, above = g <= 0, g >= 0  # both at a root: the bracket collapses onto it
-    state = ITPState(
+    state = dataclasses.replace(
+        state,
         lower=jnp.where(below, x, state.lower),
         upper=jnp.where(above, x, state.upper),
         g_lower=jnp.where(below, g, state.g_lower),
         g_upper=jnp.where(above, g, state.g_upper),
-        flip=state.flip,
-        next=x,
         reach=0.5 * state.reach,
-        kappa=state.kappa,
     )
     return eqx.tree_at(lambda s: s.next, state, _itp_point(state))
 

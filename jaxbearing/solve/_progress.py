@@ -17,7 +17,10 @@ def report(label, t, t0, t1, reported):
     """Tell the host (`_advance`) the fraction of [t0, t1] reached at ``t`` [s] (under vmap, by
     the slowest member) when it has crossed a multiple of `EVERY` since ``reported`` (the last
     multiple reported; -1 before the first report, which opens the bar); returns the new one. A
-    run so costs about 1 / `EVERY` callbacks however many segments it has."""
+    run so costs about 1 / `EVERY` callbacks however many segments it has. No ``label`` (None):
+    no bar, ``reported`` as it is."""
+    if label is None:
+        return reported
     fraction = -eqxi.unvmap_max(-(t - t0) / (t1 - t0))
     cell = jnp.floor(fraction / EVERY)
     span = eqxi.unvmap_max(t1 - t0)

@@ -76,7 +76,7 @@ def _n_balls(model) -> int:
 
 def no_peaks(model, rows=()) -> Peaks:
     """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0."""
-    shape = tuple(rows) + (peak_size(model),)
+    shape = tuple(rows) + (3 + model.n_coordinates,)  # the columns of `_peaks`
     loads = jnp.zeros(tuple(rows) + (_n_balls(model),))
     return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), loads)
 
@@ -275,11 +275,6 @@ def _add(stats, more):
         jnp.where(later[..., PEAK_BALL_LOAD, None], new.loads, old.loads),
     )
     return (peaks,) + tuple(a + b for a, b in zip(sums, more_sums))
-
-
-def peak_size(model) -> int:
-    """Length of the `SegmentStats` peaks: 3 + n_coordinates (`_peaks`)."""
-    return 3 + model.n_coordinates
 
 
 def fatigue_size(model, fatigue: bool) -> int:

@@ -75,9 +75,7 @@ def initial_carry(d: Driver, state: State) -> Carry:
             jnp.zeros(shape + state.engaged.shape, bool),
         )
 
-    reported = jnp.asarray(-1.0)
-    if d.progress is not None:
-        reported = report(d.progress, state.t, d.t0, d.core.t1, reported)
+    reported = report(d.progress, state.t, d.t0, d.core.t1, jnp.asarray(-1.0))
     return Carry(state, empty(blocks, d.block), empty(d.block), jnp.asarray(0), reported)
 
 
@@ -107,12 +105,8 @@ def segment(d: Driver, c: Carry):
     def body(loop):
         i, x, rows, n = loop
         x, row = advance(d.core, x)
-        buffers = jax.tree_util.tree_leaves(rows, is_leaf=_is_buffer)
-        values = jax.tree_util.tree_leaves(row)
-        rows = jax.tree_util.tree_unflatten(
-            jax.tree_util.tree_structure(rows, is_leaf=_is_buffer),
-            [b.at[n].set(v, pred=row.recorded) for b, v in zip(buffers, values)],
-        )
+        write = lambda buffer, v: buffer.at[n].set(v, pred=row.recorded)  # noqa: E731
+        rows = jax.tree_util.tree_map(write, rows, row, is_leaf=_is_buffer)
         return i + 1, x, rows, n + row.recorded
 
     _, x, rows, n = eqxi.while_loop(
@@ -125,9 +119,7 @@ def segment(d: Driver, c: Carry):
         checkpoints=d.segment_steps if d.kind == "checkpointed" else None,
     )
     outputs, pending, written = _write_outputs(d, c, rows, n, x.t, x.done)
-    reported = c.reported
-    if d.progress is not None:
-        reported = report(d.progress, x.t, d.t0, d.core.t1, reported)
+    reported = report(d.progress, x.t, d.t0, d.core.t1, c.reported)
     return Carry(x, outputs, pending, written, reported)
 
 
