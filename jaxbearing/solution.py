@@ -2,8 +2,8 @@
 `Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
 `SimulationError`) and the columns of the statistics, each defined once.
 The integrator (`jaxbearing.solve`) writes these (`assemble`: the `Solution` from the solve's
-final state and its outputs); `jaxbearing.metrics` and `jaxbearing.life` read them without
-importing the solver.
+final state and its outputs; `raise_on_failure`: the error a result code stands for);
+`jaxbearing.metrics` and `jaxbearing.life` read them without importing the solver.
 """
 
 from __future__ import annotations
@@ -14,6 +14,10 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import optimistix as optx
+
+from . import _checks
+from ._checks import is_concrete
 
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
@@ -302,3 +306,39 @@ def first_rows(sol: Solution, n: int) -> Solution:
     return eqx.tree_at(
         lambda s: [getattr(s, f) for f in fields], sol, [getattr(sol, f)[:n] for f in fields]
     )
+
+
+def raise_on_failure(sol: Solution, t1, rules, root_steps: int) -> Solution:
+    """``sol``, or the error its result code stands for: a `SimulationError` saying when and what
+    to change (``root_steps``: the steps the solve's root finder has to locate an event); for
+    `RESULTS.invalid_input` the broken rule of ``rules()`` (`_checks.start_rules`), a
+    `ValueError` where the values are concrete. Under your own transformations (traced results)
+    the same messages come from `eqx.error_if` checks around the solve."""
+    failed = sol.result != RESULTS.successful
+    if is_concrete(failed) and bool(sol.result == RESULTS.invalid_input):
+        _checks.raise_if_concrete(rules())
+    if is_concrete(failed, sol.t_final):
+        if bool(failed):
+            located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
+            if bool(sol.result == RESULTS.contact_overlap):
+                cause = ""  # the result says it all
+            elif bool(located):
+                cause = (
+                    " Likely cause: the event's root finder did not narrow the event time within "
+                    f"{root_steps} steps (an event value that is not finite along the step)."
+                )
+            else:
+                cause = (
+                    " Likely cause: a step limit too low for stiff contacts (raise max_steps), more "
+                    "iterations than max_segments x segment_steps (raise max_segments), tolerances float64 "
+                    "cannot meet (rtol below about 1e-13), or parameters that make the model blow "
+                    "up (check stiffness, clearance and masses)."
+                )
+            raise SimulationError(
+                f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
+                f"{RESULTS[sol.result]}{cause} Pass throw=False to inspect the partial solution."
+            )
+        return sol
+    # under jit/vmap/grad: the broken rule's message, else the failing member's (`RESULTS`)
+    sol = _checks.enforce(sol, rules())
+    return sol.result.error_if(sol, failed)

@@ -22,9 +22,10 @@ import jax.numpy as jnp
 
 from .. import _checks
 from ..multibody.mechanism import Mechanism
-from ._core import advance
+from ..solution import raise_on_failure
+from ._core import ROOT_STEPS, advance
 from ._options import SolveOptions
-from ._simulate import _raise_on_failure, core_start, solution, solve_arguments
+from ._simulate import core_start, solution, solve_arguments
 
 
 def simulate_one_loop(
@@ -59,7 +60,7 @@ def simulate_one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
     )
     rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
-    return _raise_on_failure(sol, a.t1, rules) if throw else sol
+    return raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
 
 
 @eqx.filter_jit
@@ -71,11 +72,8 @@ def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue
     final = eqxi.nondifferentiable_backward(
         final, msg="simulate_one_loop supports forward mode (jax.jvp, jax.jacfwd) only: use simulate for reverse mode."
     )
-    ends = (
-        jnp.stack([state.y, final.y]),
-        jnp.stack([state.approach, final.approach]),
-        jnp.stack([state.engaged, final.engaged]),
-    )
+    fields = ("y", "approach", "engaged")  # the rows an output time reads (`_simulate.solution`)
+    ends = tuple(jnp.stack([getattr(state, f), getattr(final, f)]) for f in fields)
     rows = lambda start, size, in_blocks=False: tuple(  # noqa: E731
         jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
     )

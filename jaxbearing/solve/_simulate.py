@@ -28,7 +28,7 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, SimulationError, Solution, assemble, first_rows
+from ..solution import RESULTS, Solution, assemble, first_rows, raise_on_failure
 from ._progress import label_key
 from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
 from ._options import SolveOptions
@@ -144,7 +144,7 @@ def simulate(
         None if progress is None else label_key(progress),
     )
     if throw:
-        sol = _raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts))
+        sol = raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts), ROOT_STEPS)
     return sol if ts.shape[0] == n_out else first_rows(sol, n_out)
 
 
@@ -381,38 +381,3 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
     return jax.lax.fori_loop(0, -(-T // batch), body, outputs)
-
-
-def _raise_on_failure(sol: Solution, t1, rules) -> Solution:
-    """``sol``, or the error its result code stands for: a `SimulationError` saying when and what
-    to change; for `RESULTS.invalid_input` the broken rule of ``rules()`` (`start_rules`), a
-    `ValueError` where the values are concrete. Under your own transformations (traced results)
-    the same messages come from `eqx.error_if` checks around the solve."""
-    failed = sol.result != RESULTS.successful
-    if is_concrete(failed) and bool(sol.result == RESULTS.invalid_input):
-        _checks.raise_if_concrete(rules())
-    if is_concrete(failed, sol.t_final):
-        if bool(failed):
-            located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
-            if bool(sol.result == RESULTS.contact_overlap):
-                cause = ""  # the result says it all
-            elif bool(located):
-                cause = (
-                    " Likely cause: the event's root finder did not narrow the event time within "
-                    f"{ROOT_STEPS} steps (an event value that is not finite along the step)."
-                )
-            else:
-                cause = (
-                    " Likely cause: a step limit too low for stiff contacts (raise max_steps), more "
-                    "iterations than max_segments x segment_steps (raise max_segments), tolerances float64 "
-                    "cannot meet (rtol below about 1e-13), or parameters that make the model blow "
-                    "up (check stiffness, clearance and masses)."
-                )
-            raise SimulationError(
-                f"The simulation stopped at t = {float(sol.t_final):.6g} s of t1 = {float(t1):.6g} s: "
-                f"{RESULTS[sol.result]}{cause} Pass throw=False to inspect the partial solution."
-            )
-        return sol
-    # under jit/vmap/grad: the broken rule's message, else the failing member's (`RESULTS`)
-    sol = _checks.enforce(sol, rules())
-    return sol.result.error_if(sol, failed)
