@@ -1,6 +1,7 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
 `Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
-`SimulationError`) and the columns of the statistics, each defined once.
+`SimulationError`) and the columns of the statistics, each defined once, with what each holds
+at one state (`_forces`, `_integrands`, `_fatigue_integrands`).
 The integrator (`jaxbearing.solve`) writes these (`assemble`: the `Solution` from the solve's
 final state and its outputs; `raise_on_failure`: the error a result code stands for);
 `jaxbearing.metrics` and `jaxbearing.life` read them without importing the solver.
@@ -18,6 +19,7 @@ import optimistix as optx
 
 from . import _checks
 from ._checks import is_concrete
+from .laws import bearing as bearing_law
 
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
@@ -221,6 +223,102 @@ class Solution(eqx.Module):
     target: int | None = eqx.field(static=True, default=None)
 
 
+# What the solution holds at one state, which the solve evaluates at the output times and along
+# each step (`solve._recording`): the forces the outputs report, and the integrands and peak
+# candidates of the statistics' columns.
+
+INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
+
+
+def _forces(model, t, q, qd, approach_speeds, engaged):
+    """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
+    and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
+    ``penetration`` [m] of the first impact contact (each only where the model has one)."""
+    bearing = _bearing_forces(model, t, q, qd, engaged)
+    return bearing | _contact_forces(model, t, q, qd, approach_speeds)
+
+
+def _bearing_forces(model, t, q, qd, engaged):
+    """The first bearing joint's part of `_forces` (empty without one)."""
+    if not model.bearings:
+        return {}
+    first = model.engaged_by_bearing(engaged)[0]
+    loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
+    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
+
+
+def _contact_forces(model, t, q, qd, approach_speeds):
+    """The first impact contact's part of `_forces` (empty without one)."""
+    if not model.contacts:
+        return {}
+    return {
+        "contact_force": model.contacts[0].forces(t, q, qd, approach_speeds[0])[0],
+        "penetration": model.contacts[0].gap(q, qd)[0],
+    }
+
+
+def _peaks(model, q, f):
+    """The peak candidates (3 + n,) of `SegmentStats` at one state with forces ``f``."""
+    zero = jnp.zeros((), q.dtype)
+    contact = f.get("contact_force", zero)
+    largest = jnp.max(f.get("ball_loads", zero[None]))
+    return jnp.concatenate([jnp.stack([largest, _magnitude(f), contact]), jnp.abs(q - model.q0)])
+
+
+def _squared(f):
+    """|F|^2 [N^2] of the bearing resultant in ``f`` (0 without a bearing)."""
+    resultant = f.get("bearing_force", jnp.zeros(2))
+    return jnp.sum(resultant * resultant)
+
+
+def _magnitude(f):
+    """|F| [N] of the bearing resultant in ``f`` (0 without a bearing)."""
+    return jnp.sqrt(_squared(f) + 1e-30)
+
+
+def _integrands(t, f):
+    """The integrands (`INTEGRALS`,) of `SegmentStats` at one state with forces ``f``."""
+    zero = jnp.zeros((), t.dtype)
+    magnitude = _magnitude(f)
+    return jnp.stack(
+        [
+            _squared(f),
+            jnp.sum((f.get("ball_loads", zero[None]) / FORCE_SCALE) ** POWER),
+            (magnitude / FORCE_SCALE) ** POWER,
+            (f.get("contact_force", zero) / FORCE_SCALE) ** POWER,
+            jnp.ones_like(t),
+        ]
+    )
+
+
+def _fatigue_integrands(model, q, qd, f):
+    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f`` (a model
+    with a bearing)."""
+    joint = model.bearings[0]
+    w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
+    balls = f["ball_loads"] / FORCE_SCALE
+    force = f["bearing_force"] / FORCE_SCALE
+    points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
+    scalars = jnp.stack(
+        [
+            jnp.ones_like(w),
+            w,
+            w * jnp.sum(force * force) ** 1.5,
+            w * jnp.mean(balls**3),
+            w * jnp.mean(balls ** (10.0 / 3.0)),
+        ]
+    )
+    return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
+
+
+def fatigue_size(model, fatigue: bool) -> int:
+    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else (or when not
+    recorded) 0."""
+    if not (model.bearings and fatigue):
+        return 0
+    return 5 + 2 * RING_POINTS_PER_BALL * model.bearings[0].bearing.n_balls
+
+
 _PER_TIME = (
     "ts", "q", "qd", "qdd", "ball_loads", "bearing_force", "cage_angle", "contact_force",
     "penetration", "approach_speed", "drift",
@@ -231,7 +329,7 @@ def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solu
     """The `Solution` of a solve of ``model`` that ended in state ``x`` (the integrator core's
     `State`) with ``result``: the per-time fields from ``outputs`` (at the output times ``ts``:
     ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces the model has, keyed as
-    `_recording._forces` keys them), and from ``x`` the records: `SegmentStats` and
+    `_forces` keys them), and from ``x`` the records: `SegmentStats` and
     `FatigueStats` of the intervals between the ``stops`` [s] after t0, cut at the time reached
     (peaks 0 and their times NaN in the intervals not reached), and the `Contacts`."""
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)

@@ -37,8 +37,8 @@ import jax.numpy as jnp
 import optimistix as optx
 
 from ..laws.bearing import BALL_RELEASE
-from ..solution import PEAK_CONTACT_FORCE, RESULTS
-from ._recording import INTEGRALS, Peaks, _add, _forces, _step_stats, fatigue_size, no_peaks, point_peaks
+from ..solution import INTEGRALS, PEAK_CONTACT_FORCE, RESULTS, _forces, fatigue_size
+from ._recording import Peaks, _add, _step_stats, no_peaks, point_peaks
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] width of the bracket that locates an event time

@@ -1,5 +1,6 @@
 """What the solve records of every step it takes: the `SegmentStats` peaks and integrals and
-the `FatigueStats` integrals (`_step_stats`), and the forces the outputs report (`_forces`).
+the `FatigueStats` integrals (`_step_stats`) of the forces the outputs report and the integrands
+at one state (`jaxbearing.solution`: `_forces`, `_integrands`, `_fatigue_integrands`).
 
 Each step contributes the forces at its end and at its 3 Gauss–Legendre points, and their
 Gauss–Legendre quadrature over the step; its peaks also at the vertices of parabolas through
@@ -15,13 +16,20 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ..laws import bearing as bearing_law
-from ..solution import FORCE_SCALE, PEAK_BALL_LOAD, POWER, RING_POINTS_PER_BALL
+from ..solution import (
+    PEAK_BALL_LOAD,
+    _bearing_forces,
+    _contact_forces,
+    _fatigue_integrands,
+    _forces,
+    _integrands,
+    _magnitude,
+    _peaks,
+)
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
 GAUSS_NODES = (0.5 - math.sqrt(15.0) / 10.0, 0.5, 0.5 + math.sqrt(15.0) / 10.0)
 GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
-INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
 
 
 @jax.jit
@@ -32,37 +40,10 @@ def _accelerations(model, t, q, qd, approach_speeds, engaged):
     return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
 
 
-def _forces(model, t, q, qd, approach_speeds, engaged):
-    """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
-    and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
-    ``penetration`` [m] of the first impact contact (each only where the model has one)."""
-    bearing = _bearing_forces(model, t, q, qd, engaged)
-    return bearing | _contact_forces(model, t, q, qd, approach_speeds)
-
-
-def _bearing_forces(model, t, q, qd, engaged):
-    """The first bearing joint's part of `_forces` (empty without one)."""
-    if not model.bearings:
-        return {}
-    first = model.engaged_by_bearing(engaged)[0]
-    loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
-    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
-
-
-def _contact_forces(model, t, q, qd, approach_speeds):
-    """The first impact contact's part of `_forces` (empty without one)."""
-    if not model.contacts:
-        return {}
-    return {
-        "contact_force": model.contacts[0].forces(t, q, qd, approach_speeds[0])[0],
-        "penetration": model.contacts[0].gap(q, qd)[0],
-    }
-
-
 class Peaks(NamedTuple):
-    """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 3 + n) (`_peaks`),
-    the ``times`` (..., 3 + n) [s] that attain them, and the ball ``loads`` (..., N_b) [N] at
-    the time of the largest ball load."""
+    """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 3 + n)
+    (`solution._peaks`), the ``times`` (..., 3 + n) [s] that attain them, and the ball ``loads``
+    (..., N_b) [N] at the time of the largest ball load."""
 
     values: jax.Array
     times: jax.Array
@@ -76,7 +57,7 @@ def _n_balls(model) -> int:
 
 def no_peaks(model, rows=()) -> Peaks:
     """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0."""
-    shape = tuple(rows) + (3 + model.n_coordinates,)  # the columns of `_peaks`
+    shape = tuple(rows) + (3 + model.n_coordinates,)  # the columns of `solution._peaks`
     loads = jnp.zeros(tuple(rows) + (_n_balls(model),))
     return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), loads)
 
@@ -85,60 +66,6 @@ def point_peaks(model, t, q, f) -> Peaks:
     """`Peaks` of the single point (t, q) with forces ``f``."""
     values = _peaks(model, q, f)
     return Peaks(values, jnp.full_like(values, t), f.get("ball_loads", jnp.zeros(0)))
-
-
-def _peaks(model, q, f):
-    """The peak candidates (3 + n,) of `SegmentStats` at one state with forces ``f``."""
-    zero = jnp.zeros((), q.dtype)
-    contact = f.get("contact_force", zero)
-    largest = jnp.max(f.get("ball_loads", zero[None]))
-    return jnp.concatenate([jnp.stack([largest, _magnitude(f), contact]), jnp.abs(q - model.q0)])
-
-
-def _squared(f):
-    """|F|^2 [N^2] of the bearing resultant in ``f`` (0 without a bearing)."""
-    resultant = f.get("bearing_force", jnp.zeros(2))
-    return jnp.sum(resultant * resultant)
-
-
-def _magnitude(f):
-    """|F| [N] of the bearing resultant in ``f`` (0 without a bearing)."""
-    return jnp.sqrt(_squared(f) + 1e-30)
-
-
-def _integrands(t, f):
-    """The integrands (`INTEGRALS`,) of `SegmentStats` at one state with forces ``f``."""
-    zero = jnp.zeros((), t.dtype)
-    magnitude = _magnitude(f)
-    return jnp.stack(
-        [
-            _squared(f),
-            jnp.sum((f.get("ball_loads", zero[None]) / FORCE_SCALE) ** POWER),
-            (magnitude / FORCE_SCALE) ** POWER,
-            (f.get("contact_force", zero) / FORCE_SCALE) ** POWER,
-            jnp.ones_like(t),
-        ]
-    )
-
-
-def _fatigue_integrands(model, q, qd, f):
-    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f`` (a model
-    with a bearing)."""
-    joint = model.bearings[0]
-    w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
-    balls = f["ball_loads"] / FORCE_SCALE
-    force = f["bearing_force"] / FORCE_SCALE
-    points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
-    scalars = jnp.stack(
-        [
-            jnp.ones_like(w),
-            w,
-            w * jnp.sum(force * force) ** 1.5,
-            w * jnp.mean(balls**3),
-            w * jnp.mean(balls ** (10.0 / 3.0)),
-        ]
-    )
-    return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
 
 
 def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
@@ -275,11 +202,3 @@ def _add(stats, more):
         jnp.where(later[..., PEAK_BALL_LOAD, None], new.loads, old.loads),
     )
     return (peaks,) + tuple(a + b for a, b in zip(sums, more_sums))
-
-
-def fatigue_size(model, fatigue: bool) -> int:
-    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else (or when not
-    recorded) 0."""
-    if not (model.bearings and fatigue):
-        return 0
-    return 5 + 2 * RING_POINTS_PER_BALL * model.bearings[0].bearing.n_balls

@@ -28,11 +28,11 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, Solution, assemble, first_rows, raise_on_failure
+from ..solution import RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure
 from ._progress import label_key
 from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
 from ._options import SolveOptions
-from ._recording import _accelerations, _forces
+from ._recording import _accelerations
 from ._segments import (
     Driver,
     full_rows,
