@@ -12,9 +12,9 @@ returned by a ``violations()`` method; on top of them every floating leaf must b
   the rule's message (`raise_if_concrete`); a run given traced values (your own `jax.jit`,
   `jax.vmap`) raises it with `eqx.error_if` around the solve when ``throw=True``.
 
-The arguments of a solve (span, tolerances, output times, counts, window edges) are checked here
-as well (at the end: `check_count`, `checked_span` and what follows), with the rules a run must
-meet (`start_rules`), for `simulate`, `simulate_one_loop` and `sweep` alike.
+The arguments of a solve (span, controller and tolerances, output times, counts, window edges)
+are checked here as well (at the end: `check_count`, `checked_span` and what follows), with the
+rules a run must meet (`start_rules`), for `simulate`, `simulate_one_loop` and `sweep` alike.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from __future__ import annotations
 import numbers
 from collections.abc import Iterable
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -248,6 +249,21 @@ def checked_tolerances(rtol, atol):
         if not values["rtol"] + values["atol"] > 0:
             raise ValueError("rtol and atol must not both be zero: the step control needs one.")
     return rtol, atol
+
+
+def checked_controller(controller):
+    """``controller`` (a diffrax step-size controller; a `TypeError` for anything else) with its
+    rtol and atol, where it has them, checked and made float64 arrays, so that other tolerances
+    reuse the compiled solve."""
+    if not isinstance(controller, diffrax.AbstractStepSizeController):
+        raise TypeError(
+            "stepsize_controller must be a diffrax step-size controller (e.g. "
+            f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
+        )
+    if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
+        tolerances = checked_tolerances(controller.rtol, controller.atol)
+        controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
+    return controller
 
 
 def checked_ts(ts, t0, t1):

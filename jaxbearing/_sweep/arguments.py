@@ -19,9 +19,10 @@ import numpy as np
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
 from .. import metrics as _metrics, paths
 from ..multibody import Mechanism
-from ..solve import default_max_segments, default_solver, simulate, simulate_one_loop
-from .._checks import checked_span, checked_ts, window_stops
-from ..solve._simulate import SEGMENT_STEPS, _checked_controller, _checked_options
+from ..solve import default_controller, default_max_segments, default_solver
+from ..solve import simulate, simulate_one_loop
+from .._checks import checked_controller, checked_span, checked_ts, window_stops
+from ..solve._simulate import SEGMENT_STEPS, _checked_options
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
@@ -251,7 +252,8 @@ def resolved_settings(sim_kwargs, solve="segments"):
         settings[name] = sim_kwargs.get(name, p.default)
     if settings.get("solver") is None:
         settings["solver"] = default_solver()
-    controller = _checked_controller(settings.get("stepsize_controller"))
+    controller = settings.get("stepsize_controller")
+    controller = default_controller() if controller is None else checked_controller(controller)
     settings["stepsize_controller"] = type(controller).__name__
     settings["rtol"] = getattr(controller, "rtol", None)
     settings["atol"] = getattr(controller, "atol", None)

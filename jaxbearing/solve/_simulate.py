@@ -175,7 +175,9 @@ def solve_arguments(caller: str, model, t1, solver, controller, max_steps, optio
     _checks.check_count("max_onsets", options.max_onsets, optional=True)
     max_onsets = default_max_onsets(*span) if options.max_onsets is None else int(options.max_onsets)
     solver = default_solver() if solver is None else solver
-    controller = _checked_controller(controller)
+    controller = (
+        default_controller() if controller is None else _checks.checked_controller(controller)
+    )
     solver = with_root_tolerances(solver, controller)
     return SolveArguments(model, options, span, t0, t1, solver, controller, max_onsets)
 
@@ -251,22 +253,6 @@ def _checked_options(options) -> SolveOptions:
     if not isinstance(options, SolveOptions):
         raise TypeError(f"options must be a jaxbearing.SolveOptions; got {type(options).__name__}.")
     return options
-
-
-def _checked_controller(controller):
-    """``controller`` (default `default_controller()`) with its rtol and atol, where it has them,
-    checked and made float64 arrays, so that other tolerances reuse the compiled solve."""
-    if controller is None:
-        return default_controller()
-    if not isinstance(controller, diffrax.AbstractStepSizeController):
-        raise TypeError(
-            "stepsize_controller must be a diffrax step-size controller (e.g. "
-            f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
-        )
-    if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
-        tolerances = _checks.checked_tolerances(controller.rtol, controller.atol)
-        controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
-    return controller
 
 
 def _vector_field(model):
