@@ -471,6 +471,7 @@ def test_parameter_record_rebuilds_the_model():
     assert record["gravity"] is None
 
 
+@pytest.mark.slow  # 20 s: another span of both cases
 def test_short_run_warns_that_both_cases_are_the_same_and_says_what_each_case_does(tmp_path, capsys):
     """--t1 0.05 ends when the contact switches on: the CLI says the cases coincide; the
     console says for each case that it compiles (or loads) and solves, and when it is done and

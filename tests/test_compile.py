@@ -16,6 +16,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import jaxbearing as jb
 from jaxbearing import _process
@@ -107,6 +108,7 @@ def _fresh(mode, **env):
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # 27 s: two fresh processes, each compiling under other XLA flags
 def test_loops_compile_whole_by_default_with_an_opt_out():
     """Importing jaxbearing sets its one XLA flag; ``JAXBEARING_KEEP_XLA_FLAGS=1`` keeps XLA's
     defaults, and a user's own ``xla_backend_extra_options`` is left alone. Both settings agree
@@ -155,6 +157,7 @@ except jb.SimulationError as err:
 """
 
 
+@pytest.mark.slow  # 16 s: a forward-mode compile in a fresh process
 def test_a_sensitivity_goes_into_the_persistent_cache_and_raises_on_the_host(tmp_path):
     """`jb.sensitivity`'s compiled derivative holds no host callback (the solve's failures come
     back as its result code, raised after the call), so a second process reuses it; a failure

@@ -150,9 +150,9 @@ def test_output_samples_differentiate_alike_in_both_modes():
     assert reverse == pytest.approx(forward, rel=1e-2)
 
 
-@pytest.mark.parametrize(
-    "ball_force", ["paper", pytest.param("smooth", marks=pytest.mark.slow)]  # suite time: 1 min each
-)
+@pytest.mark.slow  # 1 min each: 3 tangents at once through the paper's case; the default set checks
+# forward mode on the rotor (tests/test_one_loop.py) and reverse mode here (tests/test_transforms.py)
+@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
 def test_sensitivities_without_impact(ball_force):
     check_paths(case(ball_force, impact=False))
 

@@ -84,6 +84,7 @@ def test_assembly_from_a_rough_guess_closes_every_joint_and_centres_the_bearing(
     assert float(q[8]) == pytest.approx(1.8141924, abs=1e-6)  # the rocker's angle, elbow up
 
 
+@pytest.mark.slow  # 19 s: jacfwd and jacrev through the root finder
 def test_assembly_is_differentiable_in_a_joint_point():
     """d(q0, qd0)/d(ground pivot's x) by the implicit function theorem (forward and reverse)
     against central differences (h = 1e-6 m: truncation ~1e-12, round-off ~1e-10 of entries

@@ -515,6 +515,7 @@ def test_bad_options_raise(model):
 # ------------------------------------------------------------------ through the simulation
 
 
+@pytest.mark.slow  # 15 s: a reverse-mode compile; tests/test_transforms.py checks jax.grad by default
 def test_life_gradient_through_the_simulation_matches_differences():
     """d log L10 / d P_d of a rotor whose shaft turns in the bearing under an unbalance, by
     forward mode through the whole solve, against central differences of whole solves.

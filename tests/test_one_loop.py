@@ -101,6 +101,7 @@ def test_bearing_lives_agree_with_simulate(paper_case):
         assert float(life(one_loop, model)) == pytest.approx(float(life(segments, model)), rel=LIFE_TOLERANCE)
 
 
+@pytest.mark.slow  # 12 s; tests/test_sweep.py compares a sweep with single runs by default
 def test_sweep_members_agree_with_simulate_one_by_one(paper_case):
     model, _, _ = paper_case
     clearances = [20e-6, 80e-6]
@@ -184,6 +185,7 @@ def test_forward_mode_derivatives_agree_with_simulate():
     np.testing.assert_allclose(tangent, central, rtol=1e-2)
 
 
+@pytest.mark.slow  # 25 s: JAX traces the reverse pass before it refuses
 def test_reverse_mode_raises_naming_simulate(paper_case):
     model, _, _ = paper_case
 
@@ -195,6 +197,7 @@ def test_reverse_mode_raises_naming_simulate(paper_case):
         jax.grad(peak)(jnp.asarray(40e-6))
 
 
+@pytest.mark.slow  # 15 s: another compile of each driver
 def test_a_model_without_events_agrees_with_simulate():
     # no impact and the smooth ball force: no event at all, the loop only steps
     model = jb.cases.xu2014(impact=False, ball_force="smooth")

@@ -42,6 +42,7 @@ def _assert_agree(sol, ref):
         np.testing.assert_allclose(metric(sol), metric(ref), rtol=METRIC_TOLERANCE, err_msg=name)
 
 
+@pytest.mark.slow  # 30 s: three compiles of the paper's case with impact
 def test_pauses_leave_the_solution_unchanged():
     plain = jb.simulate(_model(), T1, TS)  # pausing every SEGMENT_STEPS steps
     for k in (8, 64):
@@ -50,9 +51,8 @@ def test_pauses_leave_the_solution_unchanged():
         _assert_agree(paused, plain)
 
 
-@pytest.mark.parametrize(
-    "segment_steps", [pytest.param(None, marks=pytest.mark.slow), 8]  # 8: a sweep's segments
-)
+@pytest.mark.slow  # 25 s each: vmapped and single compiles; tests/test_sweep.py compares by default
+@pytest.mark.parametrize("segment_steps", [None, 8])  # 8: a sweep's segments
 def test_vmapped_members_agree_with_single_runs(segment_steps):
     """Under vmap diffrax moves a member without an event to the end of its last attempted step
     when another member stops at one; `simulate` ends such a member at its last accepted step."""
@@ -71,6 +71,7 @@ def test_vmapped_members_agree_with_single_runs(segment_steps):
         _assert_agree(member, single(clearances[i], restitutions[i]))
 
 
+@pytest.mark.slow  # 25 s: three compiles
 def test_a_paused_segment_keeps_its_step_limit():
     """max_steps bounds the run's steps however it is cut into segments: the run fails, it does
     not go on."""
@@ -112,11 +113,9 @@ def test_a_python_span_sets_the_default_segments_also_under_jit():
     (or `jb.sensitivity`), so the defaults that follow from it (max_segments, max_onsets) are
     those of the span, not of 1 s."""
     model, ts = jb.cases.xu2014(impact=False), jnp.array([0.0, 0.01])
-    slots = lambda sol: sol.contacts.time.shape[0]  # max_onsets  # noqa: E731
-    kw = dict(options=jb.SolveOptions(segment_steps=40))  # the first solve of the step-limit test
-    plain = jb.simulate(model, 0.01, ts, **kw)
-    traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts, **kw))
-    assert slots(traced) == slots(plain) == jb.default_max_onsets(0.0, 0.01) < jb.default_max_onsets(0.0, 1.0)
+    traced = jax.eval_shape(lambda: jb.simulate(model, 0.01, ts))  # traced, not compiled
+    slots = traced.contacts.time.shape[0]  # max_onsets
+    assert slots == jb.default_max_onsets(0.0, 0.01) < jb.default_max_onsets(0.0, 1.0)
 
 
 def test_segment_steps_must_be_positive():

@@ -75,6 +75,7 @@ def test_another_label_compiles_nothing(capsys, compiled_functions):
     assert not bars(err, "short run") and not simulate_module._BARS
 
 
+@pytest.mark.slow  # 18 s: a vmapped compile
 def test_vmapped_runs_share_one_bar(capsys, reports):
     model = jb.cases.xu2014(impact=False)
     run = jax.vmap(

@@ -106,6 +106,7 @@ def test_no_impact_start_agrees():
     assert np.max(np.asarray(ref.ball_loads)) > 500.0  # the rattling is in the span
 
 
+@pytest.mark.slow  # 8 s; tests/test_one_loop.py compares the one loop with simulate by default
 def test_one_loop_start_agrees():
     """`simulate_one_loop` against the independent implementation over the span and with the
     tolerances of `test_no_impact_start_agrees` (so the same bounds: each run within about 1e-10 m

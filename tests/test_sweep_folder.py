@@ -208,6 +208,7 @@ import test_sweep_folder as t
                             text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
 
+@pytest.mark.slow  # 15 s: two more processes that each import JAX and load the solve
 def test_two_processes_on_one_folder_compute_each_chunk_once(finished, tmp_path, capfd):
     """The other process runs the sweep and stalls while writing its first chunk (a slow disk:
     the temporary file is written, not yet moved into place). Here, a different sweep in that

@@ -55,11 +55,16 @@ def test_vmap_equals_jit(ends):
     assert ends[0] < ends[1]  # a wider clearance lets the body move further
 
 
-@pytest.mark.parametrize("transform", [jax.grad, jax.jacrev], ids=["grad", "jacrev"])
+@pytest.mark.parametrize(
+    "transform",
+    [jax.grad, pytest.param(jax.jacrev, marks=pytest.mark.slow)],  # 20 s: another reverse-mode compile
+    ids=["grad", "jacrev"],
+)
 def test_reverse_mode_matches_central_difference(transform, central_difference):
     np.testing.assert_allclose(transform(end_x)(CLEARANCE), central_difference, rtol=RTOL_FD)
 
 
+@pytest.mark.slow  # 20 s: a forward-mode compile; tests/test_one_loop.py checks forward mode by default
 def test_jacfwd_with_forward_mode_matches_central_difference(central_difference):
     forward = jax.jacfwd(lambda c: end_x(c, diffrax.ForwardMode()))(CLEARANCE)
     np.testing.assert_allclose(forward, central_difference, rtol=RTOL_FD)

@@ -106,7 +106,7 @@ BAD_INPUTS = [
     (lambda: jb.cases.xu2014(clearance=0.5),
      r"bearing clearance must be at most 0\.1 of the ball diameter \(d_o - d_i\) / 2, far above any catalogue "
      r"clearance \[m\]; got 0\.5\."),
-    (lambda: jb.simulate(eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(), 2e-3), 0.01),
+    (lambda: simulate_with(lambda m: m.bearing.clearance, 2e-3),
      r"bearing clearance must be at most 0\.1 of the ball diameter .*; got 0\.002\."),
     (lambda: jb.BallBearing.from_catalogue("6205"), r"designation must be one of \['98205'\]; got '6205'\."),
     (lambda: bearing(n_balls=2), r"n_balls must be an integer of at least 3; got 2\."),
@@ -235,7 +235,7 @@ BAD_INPUTS = [
     (lambda: jb.life.dynamic_load_rating(9, float("nan"), 39e-3),
      r"ball_diameter must be finite \(not NaN or infinite\); got nan\."),
     # a contact switched on while its surfaces overlap
-    (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 1e-3),
+    (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 0.02),  # the solve of simulate_with
      r"contact 0 is switched on at t0 while its surfaces overlap \(penetration \[m\]\): start it apart, "
      r"or switch it on later \(active_from\) when they are apart; got 0\.01\."),
     # window edges, a metric's coordinate
@@ -296,7 +296,8 @@ def _config_file(data: bytes):
 
 
 def _short_solution():
-    return jb.simulate(jb.cases.xu2014(impact=False), 1e-3, jnp.linspace(0.0, 1e-3, 3))
+    # the compiled solve of the tests of values changed after construction and of solver failures
+    return jb.simulate(jb.cases.xu2014(impact=False), 0.01, jnp.linspace(0.0, 0.01, 3))
 
 
 @pytest.mark.parametrize("make, message", BAD_INPUTS)
@@ -329,7 +330,7 @@ def test_values_changed_after_construction_are_checked_in_simulate():
     """eqx.tree_at bypasses constructors: simulate checks the values again."""
     model = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(impact=False), -1e-5)
     with pytest.raises(Exception, match="bearing clearance must be zero or positive"):
-        jb.simulate(model, 1e-3, jnp.linspace(0.0, 1e-3, 3))
+        jb.simulate(model, 0.01, jnp.linspace(0.0, 0.01, 3))  # the compiled solve of the tests below
 
 
 def _run_with_clearance(c):
@@ -337,6 +338,7 @@ def _run_with_clearance(c):
     return jb.simulate(m, 1e-4, jnp.linspace(0.0, 1e-4, 3)).q
 
 
+@pytest.mark.slow  # 20 s: a vmapped compile of the paper's case
 @pytest.mark.parametrize(
     "bad, message",
     [(-1e-5, "bearing clearance must be zero or positive"), (np.nan, "forces.0.bearing.clearance must be finite")],
@@ -358,7 +360,7 @@ def test_a_contact_switched_on_while_overlapping_is_an_error():
     """The paper's circles overlap at 1 ms: the event value jumps from -1 (off) to +10 mm (on)
     there, which the event's root finder reports as a jump, and the switch as an error."""
     with pytest.raises(Exception, match=r"a contact switched on \(its active_from\) while its surfaces overlap"):
-        jb.simulate(jb.cases.xu2014(contact_on=0.001), 0.003)
+        jb.simulate(jb.cases.xu2014(contact_on=0.001), 0.02)  # the compiled solve of simulate_with
 
 
 def test_traced_nan_output_times_are_checked():
@@ -393,6 +395,7 @@ def test_solver_failure_without_throw_reports_and_marks_nan():
     assert np.isfinite(np.asarray(sol.q)[~after]).all()
 
 
+@pytest.mark.slow  # 14 s; tests/test_pauses.py runs out of segments by default
 def test_too_few_segments_fails_loudly():
     model = jb.cases.xu2014(impact=True)
     with pytest.raises(jb.SimulationError, match="max_segments"):

@@ -101,6 +101,7 @@ def test_bearing_force_is_sum_of_ball_forces(with_impact):
     np.testing.assert_allclose(np.asarray(with_impact.bearing_force), f, rtol=1e-12, atol=1e-9)
 
 
+@pytest.mark.slow  # 9 s: another compile (the constant cage)
 def test_constant_cage_mode_runs_at_eq15_speed():
     model = jb.cases.xu2014(impact=False, cage="constant")
     ts = jnp.linspace(0.0, 0.01, 11)
@@ -144,6 +145,7 @@ def test_vmap_over_clearance_with_impact_matches_single_runs():
     np.testing.assert_array_equal(np.asarray(t_final), [0.1, 0.1])
 
 
+@pytest.mark.slow  # 12 s: another compile with window edges
 def test_stops_do_not_change_the_motion(with_impact):
     """Stopping steps at 63 more window edges only cuts steps: the recorded intervals end
     there and the steps recorded in each tile it exactly (integral of 1), and the motion through
