@@ -35,6 +35,7 @@ def test_study_runs_quick(script, tmp_path):
     assert any(tmp_path.iterdir())
 
 
+@pytest.mark.slow  # 35 s: another process and sweep compile; the study's quick run is in the default set
 def test_dense_map_with_the_one_loop_solve(tmp_path):
     """``--grid`` spaces the values evenly and the members run as one loop (no output samples
     are read); a grid too large to print reports each metric's extremes, which are those of the

@@ -47,6 +47,7 @@ def central_difference(ends):
     return (ends[1] - ends[0]) / (2 * H)
 
 
+@pytest.mark.slow  # 20 s: a vmapped compile; tests/test_windows.py vmaps simulate by default
 def test_vmap_equals_jit(ends):
     batch = jax.vmap(end_x)(jnp.array([CLEARANCE - H, CLEARANCE + H]))
     # batched kernels round differently, and the steps adapt to it: equal within the solver's
