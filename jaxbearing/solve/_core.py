@@ -258,7 +258,11 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
     solver_state = s.solver.init(s.term, t0, t_next, y0, args)
-    dense = _dense_shape(s, t0, t_next, y0, args, solver_state)
+    # zeros shaped as the solver's dense info, y0 in its state-shaped leaves
+    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t_next, y0, args, solver_state, False)
+    dense = jax.tree_util.tree_map(
+        lambda x: y0 if x.shape == y0.shape else jnp.zeros(x.shape, x.dtype), out[2]
+    )
     zero = jnp.zeros((), y0.dtype)
     slots = lambda x: jnp.full(max_onsets, x)  # noqa: E731
     return State(
@@ -294,14 +298,6 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     )
 
 
-def _dense_shape(s: Setup, t0, t1, y0, args, solver_state):
-    """Zeros shaped as the solver's dense info, y0 in its state-shaped leaves."""
-    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t1, y0, args, solver_state, False)
-    return jax.tree_util.tree_map(
-        lambda x: y0 if x.shape == y0.shape else jnp.zeros(x.shape, x.dtype), out[2]
-    )
-
-
 class _Outcome(NamedTuple):
     """What an iteration's branch (`_locate`, `_attempt`) reports besides the next state (whose
     fields from ``t`` to ``root_steps`` it sets)."""
@@ -312,7 +308,6 @@ class _Outcome(NamedTuple):
     at_stop: jax.Array  # the iteration ends at the next stop
     located: jax.Array
     failure: RESULTS  # successful unless this iteration failed
-    stepped: jax.Array  # attempted a step (counts against max_steps)
     rejected: jax.Array
 
 
@@ -389,7 +384,6 @@ def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
         at_stop=located & (t_event >= _stop(s, x)),
         located=located,
         failure=failure,
-        stepped=jnp.asarray(False),
         rejected=jnp.asarray(False),
     )
 
@@ -450,7 +444,6 @@ def _attempt(s: Setup, x: State) -> tuple[State, _Outcome]:
         at_stop=accept & last,
         located=jnp.asarray(False),
         failure=failure,
-        stepped=jnp.asarray(True),
         rejected=~keep,
     )
 
@@ -484,7 +477,8 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     onsets = tuple(jnp.where(slot, v, a) for a, v in zip(x.onsets, o.onset[:3]))
     spans, current = _spans(x, row.recorded, stats[0], o.separated, new.t, onset, o.onset[2])
     reached = o.at_stop & (_stop(s, x) >= s.t1)
-    out_of_steps = o.stepped & (x.steps + 1 >= s.max_steps) & ~reached
+    stepped = ~x.locating  # a step attempt (`_attempt`), which counts against max_steps
+    out_of_steps = stepped & (x.steps + 1 >= s.max_steps) & ~reached
     failure = RESULTS.where(out_of_steps, RESULTS.max_steps_reached, o.failure)
     failure = RESULTS.where(overflow, RESULTS.max_onsets_reached, failure)
     failed = failure != RESULTS.successful
@@ -498,7 +492,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         n_onsets=x.n_onsets + (onset & ~overflow),
         current=current,
         events=x.events + o.located,
-        steps=x.steps + o.stepped,
+        steps=x.steps + stepped,
         rejected=x.rejected + o.rejected,
         done=reached | failed,
         result=RESULTS.where(failed, failure, x.result),

@@ -106,7 +106,8 @@ def segment(d: Driver, c: Carry):
         i, x, rows, n = loop
         x, row = advance(d.core, x)
         write = lambda buffer, v: buffer.at[n].set(v, pred=row.recorded)  # noqa: E731
-        rows = jax.tree_util.tree_map(write, rows, row, is_leaf=_is_buffer)
+        # a leaf of the rows as `eqxi.while_loop` hands them to the body: a buffer or an array
+        rows = jax.tree_util.tree_map(write, rows, row, is_leaf=lambda b: hasattr(b, "at"))
         return i + 1, x, rows, n + row.recorded
 
     _, x, rows, n = eqxi.while_loop(
@@ -121,11 +122,6 @@ def segment(d: Driver, c: Carry):
     outputs, pending, written = _write_outputs(d, c, rows, n, x.t, x.done)
     reported = report(d.progress, x.t, d.t0, d.core.t1, c.reported)
     return Carry(x, outputs, pending, written, reported)
-
-
-def _is_buffer(x) -> bool:
-    """A leaf of the rows as `eqxi.while_loop` hands them to the body (a buffer or an array)."""
-    return hasattr(x, "at")
 
 
 def slot(d: Driver, c: Carry, index):
@@ -197,8 +193,8 @@ def _write_outputs(d: Driver, c: Carry, recorded: Row, n, t_end, through_end):
 
 def output_rows(c: Carry, start, size: int, in_blocks: bool = False) -> tuple:
     """Rows [start, start + size) of the outputs after the run, one an output time: from the
-    blocks, and from the pending block for the times it holds. ``in_blocks``: the rows lie
-    before `full_rows`, so the blocks alone hold them."""
+    blocks, and from the pending block for the times it holds. ``in_blocks``: the rows lie in
+    the full blocks (before ``written // block * block``), so the blocks alone hold them."""
     block = c.pending[0].shape[0]
     index = start + jnp.arange(size)
 
@@ -210,10 +206,3 @@ def output_rows(c: Carry, start, size: int, in_blocks: bool = False) -> tuple:
         return _where_rows(index // block == c.written // block, pending[index % block], x)
 
     return tuple(rows(b, p) for b, p in zip(c.outputs, c.pending))
-
-
-def full_rows(c: Carry) -> jax.Array:
-    """The number of output times that full blocks hold after the run: all evaluated."""
-    block = c.pending[0].shape[0]
-    return c.written // block * block
-

@@ -35,7 +35,6 @@ from ._options import SolveOptions
 from ._recording import _accelerations
 from ._segments import (
     Driver,
-    full_rows,
     initial_carry,
     loop_kind,
     output_rows,
@@ -130,7 +129,6 @@ def simulate(
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
     sol = _with_adjoint(
         adjoint,
-        _simulate,
         model,
         t0,
         t1,
@@ -228,14 +226,14 @@ def default_max_onsets(t0, t1) -> int:
     return 1 << math.ceil(math.log2(32 + ONSET_RATE * _span(t0, t1)))
 
 
-def _with_adjoint(adjoint, solve, *args):
-    """``solve(*args, kind)`` with the loop kind of ``adjoint`` (`loop_kind`; None: reverse mode,
-    "checkpointed", as diffrax's default). Reverse-mode loops are `jax.custom_vjp`s, which JAX
-    refuses to differentiate in forward mode: a `TypeError` raised while tracing under such a
+def _with_adjoint(adjoint, *args):
+    """`_simulate` ``(*args, kind)`` with the loop kind of ``adjoint`` (`loop_kind`; None: reverse
+    mode, "checkpointed", as diffrax's default). Reverse-mode loops are `jax.custom_vjp`s, which
+    JAX refuses to differentiate in forward mode: a `TypeError` raised while tracing under such a
     loop carries a note naming the adjoint to pass."""
     kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
     try:
-        return solve(*args, kind)
+        return _simulate(*args, kind)
     except TypeError as err:
         if kind == "checkpointed":
             err.add_note(
@@ -255,26 +253,22 @@ def _checked_options(options) -> SolveOptions:
     return options
 
 
-def _vector_field(model):
-    """dy/dt of Eq. 36 with y = [q, qd] and args = (approach speeds, in contact, engaged)."""
-    n = model.n_coordinates
-
-    def vector_field(t, y, args):
-        approach, _, engaged = args
-        q, qd = y[:n], y[n:]
-        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
-
-    return diffrax.ODETerm(vector_field)
-
-
 def core_start(
     model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
 ):
     """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
     rule of the run (`_checks.start_rules`) is broken."""
+    n = model.n_coordinates
+
+    def vector_field(t, y, args):
+        # dy/dt of Eq. 36 with y = [q, qd] and args = (approach speeds, in contact, engaged)
+        approach, _, engaged = args
+        q, qd = y[:n], y[n:]
+        return jnp.concatenate([qd, _accelerations(model, t, q, qd, approach, engaged)])
+
     setup = Setup(
         model=model,
-        term=_vector_field(model),
+        term=diffrax.ODETerm(vector_field),
         solver=for_loop_kind(solver, kind),
         controller=controller,
         stops=_stops(t0, t1, extra_stops),
@@ -301,16 +295,26 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fat
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
     return solution(
         model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
-        final.written, full_rows(final), jnp.sum(used),
+        final.written, final.written // block * block, jnp.sum(used),  # full blocks: evaluated
     )
 
 
 def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
     """The `Solution` (`jaxbearing.solution.assemble`) of a run that ended in state ``x``
-    (`_core.State`) with ``result``: its records, and the states, approach speeds and engaged
-    balls at the output times (``rows(start, size)``, `_segments.output_rows`; the first
-    ``written`` reached, the first ``full`` in full blocks) and what is evaluated from them."""
-    n = model.n_coordinates
+    (`_core.State`) with ``result``: its records, and the outputs at every output time, evaluated
+    from the states, approach speeds and engaged balls there in batches of `OUTPUT_BATCH` times
+    (vmapped): NaN at the times after the first ``written`` (the run did not reach them).
+
+    ``rows(start, size, in_blocks)`` gives the rows of those times (`_segments.output_rows`). A
+    batch within the first ``full`` (in a vmapped run, for every member) reads them from the full
+    blocks as they are: every batch of a successful run but the last one or two. Any other merges
+    the pending block and puts the rows the run did not reach at q0, qd0 and no contact, so that
+    no NaN enters a derivative (their outputs become NaN). Each batch is written in place into
+    the outputs; the last one ends at T and so overlaps its predecessor, whose rows it evaluates
+    again, identically (no remainder to evaluate and concatenate apart)."""
+    n, T = model.n_coordinates, ts.shape[0]
+    batch = min(OUTPUT_BATCH, T)
+    index = jnp.arange(batch)
 
     def at(t, y, a, e):
         # outputs at one time
@@ -321,30 +325,10 @@ def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -
         out.update(_forces(model, t, q, qd, a, e))
         return out
 
-    def at_rest(y, a, e, reached):
-        # rows (batch, ...) with those the run did not reach at q0, qd0 and no contact, so that
-        # no NaN enters a derivative (their outputs become NaN)
+    def at_rest(reached, y, a, e):
         start = jnp.concatenate([model.q0, model.qd0])
         keep = lambda x, rest: _where_rows(reached, x, rest)  # noqa: E731
         return keep(y, start), keep(a, 0.0), keep(e, False)
-
-    outputs = _evaluate(at, at_rest, ts, rows, written, full, OUTPUT_BATCH)
-    return assemble(model, x, outputs, ts, stops, t0, result, n_segments)
-
-
-def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
-    """``at(t, *row)`` at every output time, vmapped over batches of ``batch`` times: (T, ...)
-    arrays, NaN at the times after the first ``written`` (the run did not reach them).
-
-    ``rows(start, size, in_blocks)`` gives the rows of those times. A batch within the first
-    ``full`` (in a vmapped run, for every member) reads them from the full blocks as they are:
-    every batch of a successful run but the last one or two. Any other merges the pending
-    block and passes its rows through ``at_rest(*rows, reached)``. Each batch is written in
-    place into the outputs; the last one ends at T and so overlaps its predecessor, whose rows
-    it evaluates again, identically (no remainder to evaluate and concatenate apart)."""
-    T = ts.shape[0]
-    batch = min(batch, T)
-    index = jnp.arange(batch)
 
     @jax.jit  # traced once for both the shapes below and the loop
     def evaluate(start):
@@ -353,7 +337,7 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
         row = jax.lax.cond(
             eqxi.unvmap_all(start + batch <= full),
             lambda: rows(start, batch, True),
-            lambda: at_rest(*rows(start, batch), reached),
+            lambda: at_rest(reached, *rows(start, batch)),
         )
         values = jax.vmap(at)(t, *row)
         return jax.tree_util.tree_map(lambda x: _where_rows(reached, x, jnp.nan), values)
@@ -366,4 +350,5 @@ def _evaluate(at, at_rest, ts, rows, written, full, batch: int):
         put = lambda buffer, x: jax.lax.dynamic_update_slice_in_dim(buffer, x, start, 0)
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
-    return jax.lax.fori_loop(0, -(-T // batch), body, outputs)
+    outputs = jax.lax.fori_loop(0, -(-T // batch), body, outputs)
+    return assemble(model, x, outputs, ts, stops, t0, result, n_segments)
