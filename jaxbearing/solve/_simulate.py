@@ -1,4 +1,4 @@
-"""The public entry of the solve: `simulate`, its defaults, its checks and its outputs.
+"""The public entry of the solve: `simulate`, its defaults, its arguments and its outputs.
 
 `simulate` repeats the integrator core (`_core.advance`: a solver step with step-size control,
 or a step of the event's root finder, and the records of each step taken) in segments of
