@@ -1,5 +1,5 @@
-"""Parameter sweeps (`jaxbearing.sweep`): many simulations of one model, vmapped, chunked, spread
-over devices, resumable.
+"""Parameter sweeps (`jaxbearing.sweep`): many simulations of one model, chunked, spread over
+devices, resumable.
 
     import jaxbearing as jb
     ds = jb.sweep(jb.cases.xu2014(),
@@ -23,19 +23,22 @@ parameters set. `life.metric` makes the L10 life such a metric:
 How it runs
 -----------
 - Points are processed in chunks of ``chunk_size`` points per device (see below). One chunk is
-  one call of a jitted ``shard_map(vmap(point -> metrics))`` over a 1-D mesh of all JAX devices
-  (``jax.devices()``), so each device integrates its own members in its own loop; the chunk is
+  one call of a jitted ``shard_map(map(point -> metrics))`` over a 1-D mesh of all JAX devices
+  (``jax.devices()``), so each device integrates its own members; the chunk is
   padded to a multiple of the device count by repeating its last point (the padding is dropped;
   `arguments.padded_rows`).
   All chunks have the same shapes, so the function compiles once (and is reused by later sweeps
   of the same model structure, metrics and solver settings in the same process). Memory stays
   bounded by the chunk, whatever the number of points.
-- Under vmap every member takes its own steps and locates its own events in each iteration of
-  the solve's loop; a chunk runs until its slowest member finishes: points that need many
-  steps slow down their chunk, not the others.
+- On a CPU device the members run one after another (`jax.lax.map`), each exactly as its run
+  alone, and the padding runs nothing; on an accelerator they run as one batch (`jax.vmap`),
+  in which every member takes its own steps and locates its own events in each iteration of
+  the solve's loop, and a chunk runs until its slowest member finishes. A CPU gains nothing
+  from a batch: XLA:CPU compiles a single member's loop into one function, not a batch's
+  (`kernel`'s docstring).
 - Where nothing reads output samples (no ``ts`` given, only metrics of the solve's records),
-  each member runs as `simulate_one_loop`: one while loop a member, the faster in batches, on
-  CPUs and accelerators alike (docs/platforms.md); else as `simulate`. Both repeat the same
+  each member runs as `simulate_one_loop`: one while loop a member, the faster on CPUs and
+  accelerators alike (docs/platforms.md); else as `simulate`. Both repeat the same
   integrator core, so the metrics agree to the solver's accuracy. The manifest records
   ``"solve": "one_loop"`` then, and the dataset's ``solve`` attribute says which ran.
 - Output times. Without ``ts`` a member is solved with just the output times its metrics
@@ -46,10 +49,9 @@ How it runs
   the samples (any other function; `arguments.needs_samples` is the rule). Members record the
   life's integrals (`Solution.fatigue`) only when a metric reads them (`life.metric`;
   `arguments.needs_fatigue`), unless ``fatigue`` is passed.
-- Chunk size. On CPU devices the default is 32 points per device. A batch runs in lock-step to
-  its slowest member, but vectorised evaluation and fewer per-chunk overheads (dispatch,
-  gathering, writing a file) outweigh that; a larger chunk loses more to an interruption and
-  holds more members in memory. The measured rates and memory per member are in
+- Chunk size. On CPU devices the default is 32 points per device: the members run one after
+  another, so the chunk sets how often results are written and what an interruption loses,
+  against a fixed cost a chunk (dispatch, gathering, writing a file). The measured rates and memory per member are in
   docs/performance.md and ``benchmarks/results.json``
   (``benchmarks/run.py --only sweep --chunk-size N``). On accelerators the default is 4096 points
   per device for members run as `simulate` and 65536 for the one loop (the best measured on

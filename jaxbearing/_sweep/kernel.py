@@ -1,5 +1,12 @@
-"""The sweep's kernel: one chunk of points as one jitted ``shard_map(vmap(point -> metrics))``
-over a 1-D mesh of all JAX devices, and the point-by-point rerun of a chunk that raises."""
+"""The sweep's kernel: one chunk of points as one jitted ``shard_map(map(point -> metrics))``
+over a 1-D mesh of all JAX devices, and the point-by-point rerun of a chunk that raises.
+
+On each device the members run one after another (`jax.lax.map`) on a CPU, and as one batch
+(`jax.vmap`) on an accelerator. A CPU gains nothing from a batch: XLA:CPU compiles a single
+member's loop into one function (`jaxbearing._process`), but not a vmapped one, whose step
+combines the solver's stages in batched matrix products, which run kernel by kernel; and a
+batch runs each iteration's step attempt and root-finder step for every member. Either way a
+member takes the same steps as its run alone."""
 
 from __future__ import annotations
 
@@ -48,10 +55,11 @@ class ChunkRunner:
         n = chunk_points.shape[0]
         rows = np.concatenate([chunk_points, np.repeat(chunk_points[-1:], self.padded - n, axis=0)])
         rows = jax.device_put(rows, self.split)
+        live = jax.device_put(np.arange(self.padded) < n, self.split)  # False: padding
         model = eqx.combine(self.dynamic, self.static)
         values, status = run_chunk(
-            model, rows, self.ts, self.names, self.metric_items, self.t1, self.sim_items, self.solve,
-            self.mesh,
+            model, rows, live, self.ts, self.names, self.metric_items, self.t1, self.sim_items,
+            self.solve, self.mesh,
         )
         values, status = _to_host((values, status))
         return values[:n], status[:n].astype(np.int32)
@@ -110,22 +118,29 @@ def _member(model, row, ts, names, metric_items, t1, sim_kwargs, solve):
 
 
 @eqx.filter_jit
-def run_chunk(model, rows, ts, names, metric_items, t1, sim_items, solve, mesh):
-    """The members of ``rows`` (sharded over ``mesh``'s devices, vmapped on each)."""
+def run_chunk(model, rows, live, ts, names, metric_items, t1, sim_items, solve, mesh):
+    """The members of ``rows``, sharded over ``mesh``'s devices: one after another on each CPU
+    device, where the padding (``live`` False) runs nothing, and vmapped on each accelerator
+    (module docstring)."""
     dynamic, static = eqx.partition(model, eqx.is_array)
     sim_kwargs = dict(sim_items)
+    on_cpu = mesh.devices.flat[0].platform == "cpu"
 
-    def per_device(dynamic, rows, ts):
+    def per_device(dynamic, rows, live, ts):
         def point(row):
             return _member(eqx.combine(dynamic, static), row, ts, names, metric_items, t1, sim_kwargs, solve)
 
-        return jax.vmap(point)(rows)
+        if not on_cpu:
+            return jax.vmap(point)(rows)
+        shapes = jax.eval_shape(point, rows[0])
+        skipped = lambda row: jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)  # noqa: E731
+        return jax.lax.map(lambda a: jax.lax.cond(a[1], point, skipped, a[0]), (rows, live))
 
     sharded = jax.shard_map(
         per_device,
         mesh=mesh,
-        in_specs=(P(), P(AXIS), P()),
+        in_specs=(P(), P(AXIS), P(AXIS), P()),
         out_specs=(P(AXIS), P(AXIS)),
         check_vma=False,
     )
-    return sharded(dynamic, rows, ts)
+    return sharded(dynamic, rows, live, ts)
