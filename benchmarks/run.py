@@ -827,9 +827,14 @@ IN_THE_WAY = {
         "side, the event function, its root finder's step and the records"
     ),
     "3-parameter gradient <= 5x forward": (
-        "forward mode costs a solve and its tangent per parameter (one jax.jvp), so three "
-        "parameters cost about three solves and tangents; jax.jacfwd shares the solve but its "
-        "batched tangents cost more per tangent on a CPU (jacfwd_ratio)"
+        "sensitivity takes one jax.jvp per parameter, each re-running the solve; a batch of the "
+        "tangents (jax.vmap of one jvp, as jax.jacfwd: jacfwd_ratio) shares the solve, but under "
+        "jax.vmap XLA:CPU hands the matrix product that evaluates a step's interpolant at several "
+        "times (jax.vmap(interpolation.evaluate) in jaxbearing/solve/_recording.py, _step_stats "
+        "and _bearing_vertex) to a YNNPACK custom fusion, which its small-while-loop pass does "
+        "not compile into the loop, so the solve's loops run kernel by kernel. Evaluating the "
+        "interpolant at each time alone keeps them whole; with that change in solve/ and "
+        "sensitivity batching its tangents the target is met (docs/performance.md)"
     ),
     ">= 25 simulations/s on 2 CPU devices": (
         "a batch member costs more than its single run (throughput of 1 device against the "
