@@ -148,12 +148,11 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
         (value, failed), grad = jax.value_and_grad(f, has_aux=True)(x)
         return value, grad, failed
 
-    # one tangent at a time (`lax.map` over the unit vectors: one compiled jvp), not a batch of
-    # them as `jax.jacfwd` takes: batched tangents cost more per tangent on a CPU than a
-    # tangent alone, and compile longer (docs/performance.md)
+    # every tangent through one solve: a batch of jvps over the unit vectors, as `jax.jacfwd`
+    # takes them; the value and the failure do not depend on the tangent (docs/performance.md)
     tangent = lambda v: jax.jvp(f, (x,), (v,), has_aux=True)  # noqa: E731 (value, derivative, failed)
-    values, grad, failed = jax.lax.map(tangent, jnp.eye(x.shape[0], dtype=x.dtype))
-    return values[0], grad, jnp.any(failed)
+    batch = jax.vmap(tangent, out_axes=(None, 0, None))
+    return batch(jnp.eye(x.shape[0], dtype=x.dtype))
 
 
 class TuneWarning(UserWarning):

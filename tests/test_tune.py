@@ -141,6 +141,19 @@ def test_paper_case_gradients_match_finite_differences():
         assert float(grad[name]) == pytest.approx(fd, rel=0.02), name
 
 
+def test_a_batch_of_tangents_equals_each_tangent_alone():
+    """`sensitivity` takes all its tangents through one solve (a vmapped jvp): each derivative
+    equals the one of its parameter alone, to the rounding of the batched arithmetic (1e-6)."""
+    model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth"), speed=100.0)
+    metric = metrics.rms_bearing_force
+    names = ["bearing.clearance", "bearing.stiffness"]
+    value, both = jb.sensitivity(model, metric, names, 0.005)
+    for name in names:
+        alone_value, alone = jb.sensitivity(model, metric, [name], 0.005)
+        assert float(alone_value) == pytest.approx(float(value), rel=1e-12)
+        assert float(both[name]) == pytest.approx(float(alone[name]), rel=1e-6), name
+
+
 def test_sensitivity_defaults_to_the_derivative_tolerance(monkeypatch):
     """Without a stepsize_controller `sensitivity` simulates at `derivative_controller()` (rtol
     `DERIVATIVE_RTOL`), not at simulate's default; a controller passed wins. Checked on what it

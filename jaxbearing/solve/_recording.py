@@ -78,7 +78,7 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     approach, _, engaged = args
     n = model.n_coordinates
     times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
-    ys = jax.vmap(interpolation.evaluate)(times)
+    ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
     q, qd = ys[:, :n], ys[:, n:]
     f = jax.vmap(lambda t, q_, qd_: _forces(model, t, q_, qd_, approach, engaged))(times, q, qd)
     points = jax.vmap(lambda t, q_, f_: point_peaks(model, t, q_, f_))(times, q, f)
@@ -144,7 +144,7 @@ def _bearing_vertex(model, interpolation, times, engaged):
     if not model.bearings:
         return jnp.zeros(2, times.dtype), jnp.zeros(0, times.dtype)
     n = model.n_coordinates
-    ys = jax.vmap(interpolation.evaluate)(times)
+    ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
     f = jax.vmap(lambda t, y: _bearing_forces(model, t, y[:n], y[n:], engaged))(times, ys)
     loads = f["ball_loads"][0]
     magnitude = _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))
