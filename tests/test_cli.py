@@ -498,6 +498,7 @@ def test_short_run_warns_that_both_cases_are_the_same_and_says_what_each_case_do
     assert "100.0 %" not in err + out and "%|" not in out
 
 
+@pytest.mark.slow  # 20 s: both cases compiled for another span
 def test_a_run_that_ends_before_the_metrics_window_reports_no_peaks_and_no_life(tmp_path):
     """--t1 0.03 ends before the case's window start (0.04 s): the peaks after it and the lives
     have no value (null in summary.json), and the run succeeds: the life's window is not

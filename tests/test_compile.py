@@ -24,6 +24,7 @@ from jaxbearing import _process
 PACKAGE = pathlib.Path(jb.__file__).parent
 
 
+@pytest.mark.slow  # 17 s: the solve compiled inside another program
 def test_simulate_inside_a_user_jit_equals_the_top_level_call():
     model = jb.cases.xu2014(impact=False)
     ts = jnp.linspace(0.0, 0.002, 3)

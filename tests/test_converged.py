@@ -16,6 +16,7 @@ from jaxbearing import metrics as M
 T1 = 0.1
 
 
+@pytest.mark.slow  # 10 s: two tolerances of two models; the clearance study's quick run calls it by default
 def test_the_papers_peak_ball_load_is_converged_and_a_stiff_bearings_is_not():
     paper = jb.cases.xu2014()
     found = M.converged(paper, M.peak_ball_load, T1)

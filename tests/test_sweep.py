@@ -294,6 +294,7 @@ def test_list_of_points(grid_result):
         run({"bearing.clearance": [1e-5, 2e-5], "bearing.damping": [300.0]}, grid=False)
 
 
+@pytest.mark.slow  # 12 s: sweeps compiled for sample-reading metrics
 def test_default_output_times_are_what_the_metrics_need():
     """Metrics of the solve's per-step records need no samples: without ts the members are
     solved with [t0, t1] only, and their metrics agree with `jb.metrics` of a dense single run

@@ -56,11 +56,8 @@ def test_vmap_equals_jit(ends):
     assert ends[0] < ends[1]  # a wider clearance lets the body move further
 
 
-@pytest.mark.parametrize(
-    "transform",
-    [jax.grad, pytest.param(jax.jacrev, marks=pytest.mark.slow)],  # 20 s: another reverse-mode compile
-    ids=["grad", "jacrev"],
-)
+@pytest.mark.slow  # 45 s: reverse-mode compiles of the paper's case; tune's tests run reverse mode by default
+@pytest.mark.parametrize("transform", [jax.grad, jax.jacrev], ids=["grad", "jacrev"])
 def test_reverse_mode_matches_central_difference(transform, central_difference):
     np.testing.assert_allclose(transform(end_x)(CLEARANCE), central_difference, rtol=RTOL_FD)
 

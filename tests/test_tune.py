@@ -141,17 +141,24 @@ def test_paper_case_gradients_match_finite_differences():
         assert float(grad[name]) == pytest.approx(fd, rel=0.02), name
 
 
-def test_a_batch_of_tangents_equals_each_tangent_alone():
-    """`sensitivity` takes all its tangents through one solve (a vmapped jvp): each derivative
-    equals the one of its parameter alone, to the rounding of the batched arithmetic (1e-6)."""
+def test_a_batch_of_tangents_matches_central_differences():
+    """`sensitivity` takes all its tangents through one solve (a vmapped jvp); each derivative
+    matches central differences of the metric. Differences with steps of 1e-3 to 1e-5 of the
+    value scatter by up to 5e-5 (clearance) and 2e-4 (stiffness, roundoff at 1e-5); at 1e-4 both
+    lie within 2e-5 of the tangents: 1e-4."""
     model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth"), speed=100.0)
     metric = metrics.rms_bearing_force
     names = ["bearing.clearance", "bearing.stiffness"]
-    value, both = jb.sensitivity(model, metric, names, 0.005)
+    _, grads = jb.sensitivity(model, metric, names, 0.005)
     for name in names:
-        alone_value, alone = jb.sensitivity(model, metric, [name], 0.005)
-        assert float(alone_value) == pytest.approx(float(value), rel=1e-12)
-        assert float(both[name]) == pytest.approx(float(alone[name]), rel=1e-6), name
+        x = float(jb.paths.get(model, name))
+        h = 1e-4 * x
+        f = [
+            float(metric(jb.simulate(jb.paths.replace(model, {name: x + s * h}), 0.005, [0.0, 0.005],
+                                     stepsize_controller=jb.derivative_controller())))
+            for s in (1.0, -1.0)
+        ]
+        assert float(grads[name]) == pytest.approx((f[0] - f[1]) / (2 * h), rel=1e-4), name
 
 
 def test_sensitivity_defaults_to_the_derivative_tolerance(monkeypatch):
