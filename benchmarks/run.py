@@ -826,28 +826,6 @@ IN_THE_WAY = {
         "backend_compile_s): the loop body inlines the solver's stages of the Eq. 36 right-hand "
         "side, the event function, its root finder's step and the records"
     ),
-    "3-parameter gradient <= 5x forward": (
-        "sensitivity takes one jax.jvp per parameter, each re-running the solve; a batch of the "
-        "tangents (jax.vmap of one jvp, as jax.jacfwd: jacfwd_ratio) shares the solve, but under "
-        "jax.vmap XLA:CPU hands the matrix product that evaluates a step's interpolant at several "
-        "times (jax.vmap(interpolation.evaluate) in jaxbearing/solve/_recording.py, _step_stats "
-        "and _bearing_vertex) to a YNNPACK custom fusion, which its small-while-loop pass does "
-        "not compile into the loop, so the solve's loops run kernel by kernel. Evaluating the "
-        "interpolant at each time alone keeps them whole; with that change in solve/ and "
-        "sensitivity batching its tangents the target is met (docs/performance.md)"
-    ),
-    ">= 25 simulations/s on 2 CPU devices": (
-        "a batch member costs more than its single run (throughput of 1 device against the "
-        "single row): under jax.vmap each loop iteration runs for the whole batch until its "
-        "slowest member ends, and the core's step attempt and root-finder step both run, "
-        "selected per member"
-    ),
-    "jaxbearing/solve/ <= 1600 lines": (
-        "met at 1599 lines, one to spare: the one core (541 lines), its two drivers and their "
-        "output times and evaluation, and the per-step records are what remains; the argument "
-        "checks are in jaxbearing/_checks.py, and the Solution's assembly, the error of a result "
-        "code, the reported forces and the statistics' integrands in jaxbearing/solution.py"
-    ),
 }
 
 
