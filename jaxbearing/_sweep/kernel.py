@@ -5,8 +5,9 @@ On each device the members run one after another (`jax.lax.map`) on a CPU, and a
 (`jax.vmap`) on an accelerator. A CPU gains nothing from a batch: XLA:CPU compiles a single
 member's loop into one function (`jaxbearing._process`), but not a vmapped one, whose step
 combines the solver's stages in batched matrix products, which run kernel by kernel; and a
-batch runs each iteration's step attempt and root-finder step for every member. Either way a
-member takes the same steps as its run alone."""
+batch runs each iteration's step attempt and root-finder step for every member. Run one after
+another, a member takes exactly the steps of its run alone; in a batch it agrees with that run
+to the solver's tolerance (batched arithmetic rounds differently)."""
 
 from __future__ import annotations
 
@@ -132,8 +133,9 @@ def run_chunk(model, rows, live, ts, names, metric_items, t1, sim_items, solve, 
 
         if not on_cpu:
             return jax.vmap(point)(rows)
-        shapes = jax.eval_shape(point, rows[0])
-        skipped = lambda row: jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)  # noqa: E731
+        def skipped(row):  # a padding row: `_member`'s shapes, never read
+            return jnp.zeros(len(metric_items)), jnp.zeros((), jnp.int32)
+
         return jax.lax.map(lambda a: jax.lax.cond(a[1], point, skipped, a[0]), (rows, live))
 
     sharded = jax.shard_map(
