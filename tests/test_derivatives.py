@@ -81,18 +81,16 @@ def check_paths(c):
             assert float(grad[name]) == pytest.approx(c.reference[name], rel=AGREE), (mode, name)
 
 
-def check_user_transforms_and_vmap(c):
-    """A user's own jax.grad and jax.jacfwd around simulate, and jax.vmap over design points."""
+def check_vmapped_jacfwd(c):
+    """A user's own jax.jacfwd around simulate (ForwardMode), vmapped over two design points."""
     name = "bearing.clearance"
     x0 = float(jb.paths.get(c.model, name))
 
-    def f(x, adjoint=None):
-        sol = jb.simulate(jb.paths.replace(c.model, {name: x}), c.t1, c.ts, adjoint=adjoint, **TIGHT)
-        return c.metric(sol)
+    def f(x):
+        m = jb.paths.replace(c.model, {name: x})
+        return c.metric(jb.simulate(m, c.t1, c.ts, adjoint=diffrax.ForwardMode(), **TIGHT))
 
-    assert float(eqx.filter_jit(jax.grad(f))(x0)) == pytest.approx(c.reference[name], rel=AGREE)
-    forward = jax.jacfwd(lambda x: f(x, diffrax.ForwardMode()))
-    batched = eqx.filter_jit(jax.vmap(forward))(jnp.array([x0, c.second]))
+    batched = eqx.filter_jit(jax.vmap(jax.jacfwd(f)))(jnp.array([x0, c.second]))
     assert float(batched[0]) == pytest.approx(c.reference[name], rel=AGREE)
     if c.second == x0:  # with impact: the repeated point, against the finite difference too
         assert float(batched[1]) == pytest.approx(c.reference[name], rel=AGREE)
@@ -157,15 +155,41 @@ def test_sensitivities_without_impact(ball_force):
     check_paths(case(ball_force, impact=False))
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("ball_force", ["paper", "smooth"])
-def test_user_transforms_and_vmap_without_impact(ball_force):
-    check_user_transforms_and_vmap(case(ball_force, impact=False))
+@pytest.mark.slow  # 20 s: a vmapped forward-mode compile
+def test_vmapped_jacfwd_without_impact():
+    """Smooth force, at the design point and 10 % wider. A user's `jax.grad` of this model
+    without impact: tests/test_transforms.py."""
+    check_vmapped_jacfwd(case("smooth", impact=False))
+
+
+@pytest.mark.slow  # 70 s: a reverse- and a forward-mode compile
+def test_user_transforms_of_the_standard_and_smooth_metrics_without_impact():
+    """A user's `jax.jacrev` and vmapped `jax.jacfwd` of two metrics at once, the RMS bearing
+    force and the smooth peak ball load (its derivative is exact: the peak is a smooth function
+    of the recorded forces), paper force, without impact."""
+    c = case("paper", impact=False)
+    name, x0 = "bearing.clearance", float(jb.paths.get(c.model, "bearing.clearance"))
+
+    def f(x, adjoint=None):
+        sol = jb.simulate(jb.paths.replace(c.model, {name: x}), c.t1, c.ts, adjoint=adjoint, **TIGHT)
+        return jnp.stack([c.metric(sol), metrics.smooth_peak_ball_load(sol, t_min=0.0)])
+
+    value = eqx.filter_jit(lambda m: f(jb.paths.get(m, name)))
+    reference = [c.reference[name], converged_difference(lambda m: value(m)[1], c.model, name)]
+    np.testing.assert_allclose(np.asarray(eqx.filter_jit(jax.jacrev(f))(x0)), reference, rtol=AGREE)
+    forward = jax.vmap(jax.jacfwd(lambda x: f(x, diffrax.ForwardMode())))
+    second = jb.paths.replace(c.model, {name: c.second})
+    reference_second = [converged_difference(lambda m: value(m)[i], second, name) for i in range(2)]
+    batched = np.asarray(eqx.filter_jit(forward)(jnp.array([x0, c.second])))
+    np.testing.assert_allclose(batched, [reference, reference_second], rtol=AGREE)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ball_force", ["paper", "smooth"])
 def test_derivatives_with_impact(ball_force):
+    """`sensitivity` in both modes and a user's vmapped `jax.jacfwd`. Reverse mode through a
+    user's own `jax.grad` is the program of `sensitivity`'s reverse mode (with simulate's
+    error checks): tests/test_transforms.py checks it, and tests/test_tune.py through `tune`."""
     c = case(ball_force, impact=True)
     check_paths(c)
-    check_user_transforms_and_vmap(c)
+    check_vmapped_jacfwd(c)

@@ -1,10 +1,9 @@
 """Metrics come from the solution, not from the output times (issue 11): `simulate` records per
 interval between its stops the peaks and integrals over every accepted step's interpolant
 (`SegmentStats`), so a metric has the same value whatever ``ts`` is, windows need stops as
-edges, and the smooth metrics keep exact derivatives."""
+edges, and the smooth metrics keep exact derivatives (checked in tests/test_derivatives.py)."""
 
 import diffrax
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -14,7 +13,6 @@ import jaxbearing as jb
 from jaxbearing import metrics as M
 from jaxbearing import report
 from jaxbearing.solution import INT_TIME
-from test_derivatives import TIGHT, converged_difference
 
 T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases, no impact yet
 EDGE = 0.013  # [s] a window edge that is no stop of `dense`
@@ -177,26 +175,6 @@ def test_window_edges_must_be_stops(model, coarse):
     assert float(M.peak_ball_load(sol, t_min=0.0)) == max(float(p) for p in peaks)
     with pytest.raises(ValueError, match="must hold part of the solved span"):  # empty window
         M.rms_bearing_force(sol, t_min=T1)
-
-
-@pytest.mark.slow  # ~110 s cold, mostly compiles; tests/test_derivatives.py checks the RMS fast
-def test_smooth_metrics_have_exact_derivatives():
-    """jax.jacrev and jax.jacfwd of the RMS bearing force and the smooth peak ball load against
-    converged central differences (tests/test_derivatives.py), paper force, without impact."""
-    model = jb.cases.xu2014(impact=False)
-    t1, ts, name = 0.01, jnp.linspace(0.0, 0.01, 11), "bearing.clearance"
-    x0 = float(jb.paths.get(model, name))
-
-    def f(x, adjoint=None):
-        sol = jb.simulate(jb.paths.replace(model, {name: x}), t1, ts, adjoint=adjoint, **TIGHT)
-        return jnp.stack([M.rms_bearing_force(sol, t_min=0.0), M.smooth_peak_ball_load(sol, t_min=0.0)])
-
-    value = eqx.filter_jit(lambda m: f(jb.paths.get(m, name)))
-    reference = [converged_difference(lambda m: value(m)[i], model, name) for i in range(2)]
-    reverse = eqx.filter_jit(jax.jacrev(f))(x0)
-    forward = eqx.filter_jit(jax.jacfwd(lambda x: f(x, diffrax.ForwardMode())))(x0)
-    for derivative in (reverse, forward):
-        np.testing.assert_allclose(np.asarray(derivative), reference, rtol=0.02)
 
 
 @pytest.mark.slow
