@@ -1,6 +1,7 @@
-"""`jax.grad`, `jax.jacrev`, `jax.jacfwd`, `jax.vmap` and `jax.jit` around `simulate`, written as a
-JAX user writes them, on a short run: 5 ms of the paper's case without impact (smooth ball
-force), the x coordinate of body 1 at t1 as a function of the bearing clearance.
+"""`jax.grad`, `jax.jacfwd`, `jax.vmap` and `jax.jit` around `simulate`, written as a JAX user
+writes them, on a short run: 5 ms of the paper's case without impact (smooth ball force), the x
+coordinate of body 1 at t1 as a function of the bearing clearance (`jax.jacrev` of two metrics:
+tests/test_derivatives.py).
 
 All solves run at rtol 1e-10: at rtol 1e-6 the derivative of the discrete solve is 6 % away from
 the converged one (2.0905 against 1.9688), at 1e-10 within 0.2 %.
