@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+import equinox as eqx
 import numpy as np
 
-from .. import metrics
+from .. import life, metrics
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES, WINDOW_START
+from ..solution import Solution
 from ._series import as_series, ball_keys, contacts, first_contact, onsets, series
 
 PEAK_FROM = WINDOW_START  # [s] peaks are taken after the paper case's start-up transient (docs/model.md)
@@ -84,11 +86,11 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     data = series(sol)
     times, speeds = onsets(sol)
     first_t, first_v = first_contact(sol)
-    has_bearing = sol.bearing_force is not None
-    impact, impact_t = _metric_peak(metrics.peak_impact_force, sol, -math.inf)
-    bearing, bearing_t = _metric_peak(metrics.peak_bearing_force, sol, t_min, has_bearing)
-    ball, ball_t = _metric_peak(metrics.peak_ball_load, sol, t_min, has_bearing)
-    which = int(metrics.peak_ball(sol, t_min=t_min)) + 1 if math.isfinite(ball) else None
+    windowed = sol.bearing_force is not None and float(sol.t_final) > t_min
+    compiled = isinstance(sol, Solution)  # a Solution-like object of other arrays: eagerly
+    peaks = [float(x) for x in (_compiled_peaks if compiled else _peaks)(sol, float(t_min), windowed)]
+    impact, impact_t, bearing, bearing_t, ball, ball_t, which = peaks + [math.nan] * (7 - len(peaks))
+    which = int(which) + 1 if math.isfinite(ball) else None
     drift = np.asarray(sol.drift, dtype=float)
     return {
         "t_final_s": float(sol.t_final),
@@ -114,33 +116,39 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     }
 
 
-def _metric_peak(metric, sol, t_min: float, applies: bool = True) -> tuple[float, float]:
-    """(``metric(sol, t_min)`` [N], the time it is attained [s]); NaN where it does not apply or
-    the run ended before ``t_min``."""
-    if not applies or float(sol.t_final) <= t_min:
-        return math.nan, math.nan
-    return float(metric(sol, t_min=t_min)), float(metrics.peak_time(sol, metric, t_min=t_min))
+def _peaks(sol, t_min: float, windowed: bool) -> tuple:
+    """The peak impact force [N] over the whole run and its time [s]; where ``windowed``, also
+    the peak bearing |F| and ball load over t >= ``t_min`` with their times and the ball (its
+    index). `_compiled_peaks` for a `Solution`: run eagerly, each of their operations compiles
+    by itself."""
+    pairs = [(metrics.peak_impact_force, -math.inf)]
+    if windowed:
+        pairs += [(metrics.peak_bearing_force, t_min), (metrics.peak_ball_load, t_min)]
+    out = []
+    for metric, after in pairs:
+        out += [metric(sol, t_min=after), metrics.peak_time(sol, metric, t_min=after)]
+    return tuple(out + ([metrics.peak_ball(sol, t_min=t_min)] if windowed else []))
+
+
+_compiled_peaks = eqx.filter_jit(_peaks)
+
+
+@eqx.filter_jit
+def _lives(sol, model, t_min: float) -> tuple:
+    """ISO 281 and Lundberg–Palmgren lives of `life_summary`, in one compiled call."""
+    iso = life.iso_life(sol, model, t_min=t_min)
+    lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
+    return iso.load_rating, iso.equivalent_load, iso.l10, iso.l10_hours, lp.l10, lp.l10_hours
 
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
     """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
     with the case's groove ratios, in millions of relative revolutions and hours, over t >=
     ``t_min``; NaN where the run ended before it."""
-    from .. import life
-
+    names = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
     if float(sol.t_final) <= t_min:  # the run ended before the window: no life
-        names = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
         return dict.fromkeys(names, math.nan)
-    iso = life.iso_life(sol, model, t_min=t_min)
-    lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
-    return {
-        "load_rating_N": float(iso.load_rating),
-        "equivalent_load_N": float(iso.equivalent_load),
-        "l10_iso_mrev": float(iso.l10),
-        "l10_iso_hours": float(iso.l10_hours),
-        "l10_lp_mrev": float(lp.l10),
-        "l10_lp_hours": float(lp.l10_hours),
-    }
+    return {name: float(x) for name, x in zip(names, _lives(sol, model, float(t_min)))}
 
 
 
