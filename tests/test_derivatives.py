@@ -184,7 +184,7 @@ def test_user_transforms_of_the_standard_and_smooth_metrics_without_impact():
     np.testing.assert_allclose(batched, [reference, reference_second], rtol=AGREE)
 
 
-@pytest.mark.slow
+@pytest.mark.slow  # ~2 min each: forward-, reverse- and vmapped forward-mode compiles with impact
 @pytest.mark.parametrize("ball_force", ["paper", "smooth"])
 def test_derivatives_with_impact(ball_force):
     """`sensitivity` in both modes and a user's vmapped `jax.jacfwd`. Reverse mode through a
