@@ -88,8 +88,8 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     first_t, first_v = first_contact(sol)
     windowed = sol.bearing_force is not None and float(sol.t_final) > t_min
     compiled = isinstance(sol, Solution)  # a Solution-like object of other arrays: eagerly
-    peaks = [float(x) for x in (_compiled_peaks if compiled else _peaks)(sol, float(t_min), windowed)]
-    impact, impact_t, bearing, bearing_t, ball, ball_t, which = peaks + [math.nan] * (7 - len(peaks))
+    peaks = (_compiled_peaks if compiled else _peaks)(sol, float(t_min), windowed)
+    impact, impact_t, bearing, bearing_t, ball, ball_t, which = (float(x) for x in peaks)
     which = int(which) + 1 if math.isfinite(ball) else None
     drift = np.asarray(sol.drift, dtype=float)
     return {
@@ -117,17 +117,17 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
 
 
 def _peaks(sol, t_min: float, windowed: bool) -> tuple:
-    """The peak impact force [N] over the whole run and its time [s]; where ``windowed``, also
-    the peak bearing |F| and ball load over t >= ``t_min`` with their times and the ball (its
-    index). `_compiled_peaks` for a `Solution`: run eagerly, each of their operations compiles
-    by itself."""
-    pairs = [(metrics.peak_impact_force, -math.inf)]
-    if windowed:
-        pairs += [(metrics.peak_bearing_force, t_min), (metrics.peak_ball_load, t_min)]
-    out = []
-    for metric, after in pairs:
-        out += [metric(sol, t_min=after), metrics.peak_time(sol, metric, t_min=after)]
-    return tuple(out + ([metrics.peak_ball(sol, t_min=t_min)] if windowed else []))
+    """The peak impact force [N] over the whole run and its time [s], the peak bearing |F| and
+    ball load over t >= ``t_min`` with their times, and the ball (its index); NaN for the last
+    five unless ``windowed``. `_compiled_peaks` for a `Solution`: run eagerly, each of their
+    operations compiles by itself."""
+    impact = metrics.peak_impact_force
+    out = (impact(sol, t_min=-math.inf), metrics.peak_time(sol, impact, t_min=-math.inf))
+    if not windowed:
+        return out + (math.nan,) * 5
+    for metric in (metrics.peak_bearing_force, metrics.peak_ball_load):
+        out += (metric(sol, t_min=t_min), metrics.peak_time(sol, metric, t_min=t_min))
+    return out + (metrics.peak_ball(sol, t_min=t_min),)
 
 
 _compiled_peaks = eqx.filter_jit(_peaks)
