@@ -5,7 +5,8 @@ returned by a ``violations()`` method; on top of them every floating leaf must b
 (`finite_leaves`). The rules are enforced twice:
 
 - at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
-  and what is allowed, whenever the values are concrete;
+  and what is allowed, whenever the values are concrete (known values are checked in NumPy,
+  `namespace` and `on_host`: a check compiles no program);
 - by `jaxbearing.simulate`, because parameters also change after construction (`eqx.tree_at`,
   sweeps, optimisers): inside the compiled solve as a result code (`RESULTS.invalid_input`, no
   host callback, so the compiled solve can be cached), raised on the host after the call with
@@ -47,9 +48,9 @@ def as_float(value, name: str, unit: str) -> jax.Array:
     parameter ``name`` [unit]; anything but a number or an array of numbers (a string such as
     "40 um", a boolean, None) raises a `ValueError` naming the parameter and its unit."""
     require_x64()
-    if not isinstance(value, (str, bytes, bool, np.bool_)):
+    if not isinstance(value, (str, bytes, bool, np.bool_)) and value is not None:
         try:
-            return jnp.asarray(value, dtype=jnp.float64)
+            return to_float64(value)
         except (TypeError, ValueError):
             pass
     raise ValueError(
@@ -87,7 +88,7 @@ def float_leaves(tree):
             return x
         if isinstance(x, jax.Array) and x.dtype == jnp.float64 and not x.weak_type:
             return x
-        return jnp.asarray(x, jnp.float64)
+        return to_float64(x)
 
     return jax.tree_util.tree_map(convert, tree)
 
@@ -132,6 +133,32 @@ def enforce(x, violations: Iterable[tuple[object, str, object]]):
     return eqx.branched_error_if(x, jnp.any(wrong), jnp.argmax(wrong), messages)
 
 
+def to_float64(value) -> jax.Array:
+    """``value`` as a float64 JAX array. A value known in Python is converted by NumPy and put on
+    the device, which compiles nothing (``jnp.asarray`` of a number or a NumPy array compiles a
+    small program per shape, once per process); a JAX array or tracer goes through
+    ``jnp.asarray``."""
+    if isinstance(value, jax.Array) or not is_concrete(*jax.tree_util.tree_leaves(value)):
+        return jnp.asarray(value, jnp.float64)
+    return jax.device_put(np.asarray(value, np.float64))
+
+
+def namespace(*xs):
+    """The array namespace for rules on ``xs``: NumPy when every one is concrete (a check of
+    known values then compiles nothing), `jax.numpy` when any is traced (the check runs in the
+    caller's program)."""
+    return np if is_concrete(*xs) else jnp
+
+
+def on_host(tree):
+    """``tree`` with every concrete JAX array as a NumPy array (traced leaves stay), so that
+    its rules (``violations()``) evaluate in NumPy: see `namespace`."""
+    def convert(x):
+        return np.asarray(x) if isinstance(x, jax.Array) and is_concrete(x) else x
+
+    return jax.tree_util.tree_map(convert, tree)
+
+
 def finite_leaves(module, prefix: str = "") -> list:
     """One rule per floating array leaf of ``module``: it must be finite. Each is named by its
     dotted path (``"forces.0.bearing.stiffness"``, as in `jaxbearing.paths`) after ``prefix``.
@@ -148,29 +175,30 @@ def finite_leaves(module, prefix: str = "") -> list:
 def check_init(module) -> None:
     """The construction check of a parameter Module: every floating leaf finite (named
     ``Class.field``), then the Module's own ``violations()``."""
-    raise_if_concrete(finite_leaves(module, f"{type(module).__name__}.") + module.violations())
+    host = on_host(module)
+    raise_if_concrete(finite_leaves(host, f"{type(module).__name__}.") + host.violations())
 
 
 def finite(name: str, value):
     """The rule that ``value`` is finite (a NaN passes every comparison rule)."""
-    return (~jnp.isfinite(value), f"{name} must be finite (not NaN or infinite)", value)
+    return (~namespace(value).isfinite(value), f"{name} must be finite (not NaN or infinite)", value)
 
 
 def positive(name: str, value, unit: str):
-    return (jnp.asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
+    return (namespace(value).asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
 
 
 def non_negative(name: str, value, unit: str):
-    return (jnp.asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
+    return (namespace(value).asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
 
 
 def in_open_interval(name: str, value, low: float, high: float):
-    v = jnp.asarray(value)
+    v = namespace(value).asarray(value)
     return ((v <= low) | (v >= high), f"{name} must lie in ({low}, {high})", value)
 
 
 def in_half_open_interval(name: str, value, low: float, high: float):
-    v = jnp.asarray(value)
+    v = namespace(value).asarray(value)
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
 
 
@@ -184,16 +212,18 @@ def material(youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisso
 
 def ball_count(n_balls):
     """A bearing has an integer number of balls, at least 3."""
-    z = jnp.asarray(n_balls)
-    return ((z < 3) | (z != jnp.round(z)), "n_balls must be an integer of at least 3", n_balls)
+    xp = namespace(n_balls)
+    z = xp.asarray(n_balls)
+    return ((z < 3) | (z != xp.round(z)), "n_balls must be an integer of at least 3", n_balls)
 
 
 def balls_fit(n_balls, ball_diameter, pitch_diameter):
     """The balls fit around the pitch circle without overlapping: neighbours' centres lie
     d_m sin(pi/Z) apart, so D < d_m sin(pi/Z)."""
-    z, d, dm = (jnp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
+    xp = namespace(n_balls, ball_diameter, pitch_diameter)
+    z, d, dm = (xp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
     return (
-        d >= dm * jnp.sin(jnp.pi / jnp.maximum(z, 1.0)),
+        d >= dm * xp.sin(xp.pi / xp.maximum(z, 1.0)),
         (
             "ball_diameter must be below pitch_diameter * sin(pi / n_balls), or the balls "
             "overlap on the pitch circle [m]"
@@ -229,7 +259,7 @@ def checked_span(t0, t1):
                 raise ValueError(f"{name} must be a finite number [s]; got {name} = {value}.")
         if not np.asarray(t1, np.float64) > np.asarray(t0, np.float64):
             raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
-        return jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
+        return to_float64(t0), to_float64(t1)
     t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
     finite = jnp.isfinite(t0) & jnp.isfinite(t1)
     return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
@@ -238,7 +268,7 @@ def checked_span(t0, t1):
 def checked_tolerances(rtol, atol):
     """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
     `ValueError` now if they are concrete and not finite, negative, or both zero."""
-    rtol, atol = jnp.asarray(rtol, jnp.float64), jnp.asarray(atol, jnp.float64)
+    rtol, atol = to_float64(rtol), to_float64(atol)
     if is_concrete(rtol, atol):
         values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}
         for name, x in values.items():
@@ -309,7 +339,7 @@ def window_stops(window_edges, window_start=None) -> jax.Array:
         raise wrong
     start = () if window_start is None else (window_start,)
     try:
-        stops = jnp.asarray(start + tuple(window_edges), jnp.float64)
+        stops = to_float64(start + tuple(window_edges))
     except (TypeError, ValueError):
         raise wrong from None
     if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):

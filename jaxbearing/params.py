@@ -13,7 +13,6 @@ from typing import Literal
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
 
 from . import _checks
 from .laws import hertz
@@ -146,12 +145,14 @@ class BallBearing(eqx.Module):
         _checks.raise_if_concrete(
             [_checks.ball_count(n_balls), _checks.balls_fit(n_balls, ball_diameter, pitch_diameter)]
         )
+        xp = _checks.namespace(pitch_diameter, ball_diameter)
+        dm, d = xp.asarray(pitch_diameter, xp.float64), xp.asarray(ball_diameter, xp.float64)
         return cls(
             clearance=clearance,
             stiffness=k_ball,
             damping=damping,
-            inner_race_diameter=jnp.asarray(pitch_diameter) - jnp.asarray(ball_diameter),
-            outer_race_diameter=jnp.asarray(pitch_diameter) + jnp.asarray(ball_diameter),
+            inner_race_diameter=dm - d,
+            outer_race_diameter=dm + d,
             n_balls=n_balls,
             **kwargs,
         )

@@ -15,7 +15,6 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 
 from . import _checks
 from ._checks import is_concrete
@@ -48,6 +47,10 @@ class RESULTS(diffrax.RESULTS):
     contact_overlap = (
         "The event found a contact switched on (its active_from) while its surfaces overlap: "
         "switch it on when they are apart."
+    )
+    event_not_located = (
+        "The event's root finder did not narrow an event time within its steps: "
+        "the event value is likely not finite along the step."
     )
     invalid_input = (
         "A parameter value, the initial state or the times are outside what is allowed (the "
@@ -417,14 +420,10 @@ def raise_on_failure(sol: Solution, t1, rules, root_steps: int) -> Solution:
         _checks.raise_if_concrete(rules())
     if is_concrete(failed, sol.t_final):
         if bool(failed):
-            located = sol.result == RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
             if bool(sol.result == RESULTS.contact_overlap):
                 cause = ""  # the result says it all
-            elif bool(located):
-                cause = (
-                    " Likely cause: the event's root finder did not narrow the event time within "
-                    f"{root_steps} steps (an event value that is not finite along the step)."
-                )
+            elif bool(sol.result == RESULTS.event_not_located):
+                cause = f" The root finder takes at most {root_steps} steps."
             else:
                 cause = (
                     " Likely cause: a step limit too low for stiff contacts (raise max_steps), more "

@@ -1,5 +1,6 @@
 """How the solve compiles: once per structure (values, tolerances, step limits and up to 2048
-output times compile nothing new, nor does a Python float put into a model), XLA:CPU's loops
+output times compile nothing new, nor does a Python float put into a model), model checks of
+known values in NumPy (building a model compiles only its stiffness laws), XLA:CPU's loops
 compiled whole by default (`jaxbearing._process`, with its opt-out), no host callback in the compiled
 solve (so JAX's persistent compilation cache stores it), and no private or compiler-steering
 code in the package."""
@@ -167,6 +168,32 @@ def test_a_sensitivity_goes_into_the_persistent_cache_and_raises_on_the_host(tmp
     assert done.returncode == 0, done.stderr[-3000:]
     assert any(p.name.startswith("jit__value_and_grad-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
     assert "raised: The simulation stopped at t = " in done.stdout
+
+
+_BUILT = """
+import json
+import jax
+jax.config.update("jax_enable_x64", True)
+import jaxbearing as jb
+names = []
+jax.monitoring.register_event_duration_secs_listener(lambda e, d, **kw: names.append(kw.get("fun_name")))
+model = jb.cases.xu2014()
+body = jb.multibody.Body(mass=2.0, inertia=0.01)
+bearing = jb.BallBearing(clearance=40e-6, stiffness=9.6e9, damping=300.0, inner_race_diameter=0.0292, outer_race_diameter=0.0466, n_balls=8)
+print(json.dumps(sorted({n for n in names if n})))
+"""
+
+
+def test_building_and_checking_a_model_compiles_only_its_stiffness_laws():
+    """A model's rules are checked, where its values are known, in NumPy: in a fresh process,
+    building the paper's case, a body and a bearing compiles only the Hertz laws that give the
+    case's stiffnesses (`hertz.bearing_stiffness`, `hertz.impact_stiffness`), no program per
+    comparison of a check."""
+    done = subprocess.run([sys.executable, "-c", _BUILT], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
+    names = json.loads(done.stdout.strip().splitlines()[-1])  # traced "f", compiled "jit(f)"
+    compiled = {name.removeprefix("jit(").removesuffix(")") for name in names}
+    assert compiled <= {"_bearing_stiffness", "_impact_stiffness"}, names
 
 
 def test_no_private_apis_or_compiler_tricks_in_the_package():

@@ -81,25 +81,26 @@ def elliptic_integrals(m):
 
 
 def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
+    xp = _checks.namespace(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle)
     return [
         _checks.positive("ball_diameter", ball_diameter, "m"),
         (
-            jnp.asarray(pitch_diameter) <= jnp.asarray(ball_diameter),
+            xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
             "pitch_diameter must exceed ball_diameter [m]",
             pitch_diameter,
         ),
         (
-            jnp.asarray(groove_inner) <= 0.5,
+            xp.asarray(groove_inner) <= 0.5,
             "groove_inner (inner raceway groove curvature ratio f_i = r_i/D) must exceed 0.5",
             groove_inner,
         ),
         (
-            jnp.asarray(groove_outer) <= 0.5,
+            xp.asarray(groove_outer) <= 0.5,
             "groove_outer (outer raceway groove curvature ratio f_o = r_o/D) must exceed 0.5",
             groove_outer,
         ),
         (
-            (jnp.asarray(contact_angle) < 0.0) | (jnp.asarray(contact_angle) >= 0.5 * jnp.pi),
+            (xp.asarray(contact_angle) < 0.0) | (xp.asarray(contact_angle) >= 0.5 * xp.pi),
             "contact_angle must lie in [0, pi/2) [rad]",
             contact_angle,
         ),
@@ -146,7 +147,7 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
 
 
 def _curvature_difference_rules(f):
-    v = jnp.asarray(f)
+    v = _checks.namespace(f).asarray(f)
     return [((v < 0.0) | (v >= 1.0), "curvature_difference F(rho) must lie in [0, 1)", f)]
 
 

@@ -352,7 +352,7 @@ class Mechanism(eqx.Module):
         return "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
 
     def __check_init__(self):
-        _checks.raise_if_concrete(self.parameter_violations())
+        _checks.raise_if_concrete(_checks.on_host(self).parameter_violations())
 
 
 def _refuse_pins_at_bearings(model) -> None:

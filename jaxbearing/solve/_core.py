@@ -34,7 +34,6 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 
 from ..laws.bearing import BALL_RELEASE
 from ..solution import INTEGRALS, PEAK_CONTACT_FORCE, RESULTS, _forces, fatigue_size
@@ -48,7 +47,6 @@ ROOT_STEPS = 64  # root-finder steps after which an event counts as not located 
 SMALLEST_STEP = 1e-15  # [s] a member whose proposed step falls below it has failed
 ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
 ITP_SLACK = 1  # steps allowed beyond bisection's (the method's n0)
-_NOT_LOCATED = RESULTS.promote(optx.RESULTS.nonlinear_max_steps_reached)
 
 
 class ITPState(eqx.Module):
@@ -361,7 +359,7 @@ def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
     t_event, y_event, switches, onset, separated, overlap, value = jax.lax.cond(
         eqxi.unvmap_any(located), event, no_event
     )
-    failure = RESULTS.where(lost, _NOT_LOCATED, RESULTS.successful)
+    failure = RESULTS.where(lost, RESULTS.event_not_located, RESULTS.successful)
     failure = RESULTS.where(located & overlap, RESULTS.contact_overlap, failure)
     approach, in_contact, engaged = _select(located, switches, _args(x))
     state = x._replace(

@@ -23,6 +23,7 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
 
 from .. import _checks
@@ -135,7 +136,7 @@ def simulate(
         ts,
         solver,
         stepsize_controller,
-        jnp.asarray(max_steps),  # an array, like rtol and atol: another value compiles nothing
+        jax.device_put(np.asarray(max_steps)),  # an array, like rtol and atol: another value compiles nothing
         _checks.window_stops(options.window_edges, model.window_start),
         options.fatigue is not False,
         sizes,
