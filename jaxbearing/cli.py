@@ -13,8 +13,10 @@ and writes into ``--out`` (default ``results/xu2014``):
 - ``fig12_slider_target.png`` ... ``fig15_ball_loads.png``: the paper's Figs. 12–15 over
   `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid.
 
-Each case's files (and summary.json, and the figures with the cases done so far) are written as
-soon as that case is done, each atomically, so an interrupted run keeps what it had computed.
+Each case's CSV (and summary.json so far) is written as soon as that case is done, each file
+atomically, so an interrupted run keeps what it had computed. The figures are drawn once, when
+both cases are done, or, when the run stops early (a failed solve, Ctrl-C or SIGTERM), with the
+cases it finished.
 The console shows what each case is doing and how long it took (stderr), the summaries and
 Table 5; a warning says when --t1 stops before the slider first strikes the target (both cases
 are then the same).
@@ -39,7 +41,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -150,18 +154,42 @@ def run_xu2014(args) -> int:
     summary = _summary(args, ts, stride, source, overrides, models)
     written: list[Path] = []
     done: dict = {}
-    for key, label, impact in CASES:
-        result = _run_case(args, models[impact], ts, label)
-        if result is None:
-            return 1
-        sol, s = result
-        if impact and args.t1 > contact_on and s["contact_count"] == 0:
-            _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and without "
-                  "impact give the same results; the first contact comes near "
-                  f"t = {FIRST_CONTACT} s (paper's parameters).")  # fmt: skip
-        written += _write_case(args, out, key, label, impact, sol, s, summary, stride, done)
+    stop = _sigterm_as_interrupt()
+    try:
+        for key, label, impact in CASES:
+            result = _run_case(args, models[impact], ts, label)
+            if result is None:
+                return 1
+            sol, s = result
+            if impact and args.t1 > contact_on and s["contact_count"] == 0:
+                _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and without "
+                      "impact give the same results; the first contact comes near "
+                      f"t = {FIRST_CONTACT} s (paper's parameters).")  # fmt: skip
+            written += _write_case(out, key, label, impact, sol, s, summary, stride, done)
+    except KeyboardInterrupt:
+        print(f"jaxbearing xu2014: stopped; the files of the cases done are in {out}", file=sys.stderr)
+        return 130
+    finally:  # also when a solve fails or the run is stopped: the figures of the cases done
+        stop()
+        if done and not args.no_figures:
+            written += _plot(out, done)
     _print_end(summary, out, written)
     return 0
+
+
+def _sigterm_as_interrupt():
+    """Make SIGTERM raise KeyboardInterrupt, as Ctrl-C does, so that a stopped run still draws
+    its figures (only in the main thread, where Python handles signals); returns the undo."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    return lambda: signal.signal(signal.SIGTERM, previous)
+
+
+def _plot(out, done) -> list[Path]:
+    from . import cases, report
+
+    return report.plot_figures(out, done, cases.FIGURE_WINDOW)
 
 
 def _models(args, config):
@@ -278,17 +306,15 @@ def _run_case(args, model, ts, label):
         start = time.perf_counter()
         solve()
         wall_second = time.perf_counter() - start
-    t_min = _window_start(model)
-    s = report.summarize(sol, t_min)
-    s.update(report.life_summary(sol, model, t_min))
+    s = report.summarize(sol, _window_start(model), model)
     s["wall_first_s"] = wall_first
     s["wall_second_s"] = wall_second
     return sol, s
 
 
-def _write_case(args, out, key, label, impact, sol, s, summary, stride, done) -> list[Path]:
-    """Write one case's CSV, the summary so far and the figures of the cases done; print it."""
-    from . import cases, report
+def _write_case(out, key, label, impact, sol, s, summary, stride, done) -> list[Path]:
+    """Write one case's CSV and the summary so far; print it; add its series to ``done``."""
+    from . import report
 
     data = report.series(sol)
     summary["cases"][key] = s
@@ -299,8 +325,6 @@ def _write_case(args, out, key, label, impact, sol, s, summary, stride, done) ->
     written.append(report.write_json(out / "summary.json", summary))
     print(report.format_summary(label, s), flush=True)
     done[label] = data
-    if not args.no_figures:
-        written += report.plot_figures(out, done, cases.FIGURE_WINDOW)
     return written
 
 

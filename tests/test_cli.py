@@ -281,15 +281,7 @@ def quick_run(tmp_path_factory):
 def test_cli_writes_files(quick_run):
     rc, out = quick_run
     assert rc == 0
-    for name in (
-        "with_impact.csv",
-        "without_impact.csv",
-        "summary.json",
-        "fig12_slider_target.png",
-        "fig13_impact_force.png",
-        "fig14_bearing_force.png",
-        "fig15_ball_loads.png",
-    ):
+    for name in ("with_impact.csv", "without_impact.csv", "summary.json", *FIGURES):
         assert (out / name).stat().st_size > 1000, name
     assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
     with (out / "with_impact.csv").open() as f:
@@ -297,6 +289,33 @@ def test_cli_writes_files(quick_run):
         n_rows = sum(1 for _ in f)
     assert header[:2] == ["t_s", "slider_x_m"] and "ball8_N" in header
     assert n_rows == 5001  # every sample: they are 20 µs apart, coarser than --csv-dt (10 µs)
+
+
+FIGURES = ("fig12_slider_target.png", "fig13_impact_force.png", "fig14_bearing_force.png", "fig15_ball_loads.png")
+
+
+@pytest.mark.parametrize("stop", ["a failed solve", "Ctrl-C"])
+def test_a_run_stopped_in_its_second_case_keeps_the_first_and_draws_its_figures(tmp_path, monkeypatch, capsys, stop):
+    """The figures are drawn once, when both cases are done; a run that stops in its second case
+    (its solve fails: status 1; Ctrl-C or SIGTERM: status 130) still writes the first case's CSV,
+    summary.json and the figures of that case. The solves are stand-ins (`fake_solution`)."""
+    sol = fake_solution(np.linspace(0.0, 0.2, 2001))
+
+    def run_case(args, model, ts, label):
+        if label == "with impact":
+            return sol, report.summarize(sol) | {"wall_first_s": 0.5, "wall_second_s": None}
+        if stop == "Ctrl-C":
+            raise KeyboardInterrupt
+        return None  # as `_run_case` after printing the solve's error
+
+    monkeypatch.setattr(cli, "_run_case", run_case)
+    assert cli.main(["xu2014", "--out", str(tmp_path)]) == (130 if stop == "Ctrl-C" else 1)
+    for name in ("with_impact.csv", "summary.json", *FIGURES):
+        assert (tmp_path / name).stat().st_size > 1000, name
+    assert not (tmp_path / "without_impact.csv").exists()
+    assert list(json.loads((tmp_path / "summary.json").read_text())["cases"]) == ["with_impact"]
+    if stop == "Ctrl-C":
+        assert f"stopped; the files of the cases done are in {tmp_path}" in capsys.readouterr().err
 
 
 def test_cli_summary(quick_run):

@@ -18,7 +18,7 @@ import pytest  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
 import jaxbearing as jb  # noqa: E402
-from jaxbearing import life  # noqa: E402
+from jaxbearing import life, report  # noqa: E402
 
 # 6205 internals (catalogue C_r = 14.0 kN) and the paper's SKF 98205, SI units.
 Z_6205, D_6205, DM_6205 = 9, 7.938e-3, 39.04e-3
@@ -500,6 +500,20 @@ def test_life_as_a_metric_of_solution_and_model(model, simulated):
         life.metric("iso", "years")
     with pytest.raises(TypeError, match=r"life.metric\('iso'\): .*groove_inner"):
         life.metric("iso", groove_inner=0.52)  # a keyword of lp_life, not of iso_life
+
+
+def test_the_report_s_summary_carries_the_lives_of_life_summary(model, simulated):
+    """`report.summarize` given the model holds `report.life_summary`'s keys, computed in one
+    compiled call with the peaks: the same lives as `life_summary`'s and `iso_life`'s (other
+    compiled programs of the same operations: rtol 1e-12, far above rounding's 1e-15)."""
+    sol = simulated[0]
+    alone = report.life_summary(sol, model, 0.04)
+    together = report.summarize(sol, 0.04, model)
+    assert alone.keys() <= together.keys()
+    for key, value in alone.items():
+        assert together[key] == pytest.approx(value, rel=1e-12), key
+    assert alone["l10_iso_mrev"] == pytest.approx(float(life.iso_life(sol, model, t_min=0.04).l10), rel=1e-12)
+    assert "l10_iso_mrev" not in report.summarize(sol, 0.04)
 
 
 def test_bad_options_raise(model):

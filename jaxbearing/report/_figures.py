@@ -20,6 +20,9 @@ from ._series import as_series, ball_keys
 
 BODIES = (("slider", "C0"), ("target", "C3"))  # Fig. 12's bodies and their colours
 ENVELOPE_BINS = 2000  # a curve above twice this many samples is drawn as its min-max envelope
+# [in] `_place`: the figure's edges, the gaps between panels, and the room a panel title adds
+# above each row
+MARGINS = {"left": 0.95, "right": 0.2, "bottom": 0.55, "top": 0.5, "gap_x": 0.95, "gap_y": 0.15, "title": 0.25}
 _STYLE = {  # per case (with impact or not): line style; colours are per quantity
     True: {"linestyle": "-", "linewidth": 0.8, "alpha": 0.9},
     False: {"linestyle": "--", "linewidth": 1.3, "alpha": 1.0},
@@ -137,12 +140,35 @@ def envelope(t, y, bins: int):
     return t[keep], y[keep]
 
 
+def _place(fig, figure: _Figure, rows: int) -> None:
+    """Fixed margins [in] around and between the panels (`MARGINS`): room for the tick labels
+    (up to 7 characters), the axis labels, the panel titles and the figure title. A layout
+    engine would measure every text before drawing, which costs about as much as the drawing."""
+    width, height = figure.size
+    left, right, bottom, top, gap_x, gap_y = (
+        MARGINS[k] for k in ("left", "right", "bottom", "top", "gap_x", "gap_y")
+    )
+    if any(panel.title for panel in figure.panels):
+        top, gap_y = top + MARGINS["title"], gap_y + MARGINS["title"]
+    panel_w = (width - left - right - (figure.columns - 1) * gap_x) / figure.columns
+    panel_h = (height - bottom - top - (rows - 1) * gap_y) / rows
+    fig.subplots_adjust(
+        left=left / width,
+        right=1.0 - right / width,
+        bottom=bottom / height,
+        top=1.0 - top / height,
+        wspace=gap_x / panel_w,
+        hspace=gap_y / panel_h,
+    )
+
+
 def _draw(out_dir: Path, figure: _Figure, ordered, window, xlim) -> Path:
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=figure.size, layout="constrained")
+    fig = Figure(figsize=figure.size)
     rows = max(1, math.ceil(len(figure.panels) / figure.columns))
     axes = fig.subplots(rows, figure.columns, sharex=True, squeeze=False).ravel()
+    _place(fig, figure, rows)
     for ax, panel in zip(axes, figure.panels):
         for label, d in ordered:
             inside = (d["t"] >= window[0]) & (d["t"] <= window[1])

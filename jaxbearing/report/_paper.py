@@ -66,7 +66,7 @@ def table5_summary(data, times=TABLE5_TIMES, paper=TABLE5) -> dict:
     }
 
 
-def summarize(sol, t_min: float = PEAK_FROM) -> dict:
+def summarize(sol, t_min: float = PEAK_FROM, model=None) -> dict:
     """JSON-ready summary of one simulation (numbers only, no timings).
 
     Keys (units in the suffix): ``t_final_s``, ``samples``, ``first_contact_time_s``,
@@ -82,17 +82,22 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
     its interpolant, whatever the output times; NaN, and ball None, where the run ended before
     ``t_min``), and the contacts come from the solve's records as well; the balls are numbered
     from 1.
+
+    Given the run's ``model``, the summary holds `life_summary`'s keys as well, computed in the
+    same compiled call as the peaks.
     """
     data = series(sol)
     times, speeds = onsets(sol)
     first_t, first_v = first_contact(sol)
     windowed = sol.bearing_force is not None and float(sol.t_final) > t_min
-    compiled = isinstance(sol, Solution)  # a Solution-like object of other arrays: eagerly
-    peaks = (_compiled_peaks if compiled else _peaks)(sol, float(t_min), windowed)
+    if not isinstance(sol, Solution):  # a Solution-like object of other arrays: eagerly
+        peaks, lives = _peaks(sol, float(t_min), windowed), None
+    else:
+        peaks, lives = _numbers(sol, model if windowed else None, float(t_min), windowed)
     impact, impact_t, bearing, bearing_t, ball, ball_t, which = (float(x) for x in peaks)
     which = int(which) + 1 if math.isfinite(ball) else None
     drift = np.asarray(sol.drift, dtype=float)
-    return {
+    summary = {
         "t_final_s": float(sol.t_final),
         "samples": int(data["t"].size),
         "first_contact_time_s": first_t,
@@ -114,13 +119,16 @@ def summarize(sol, t_min: float = PEAK_FROM) -> dict:
         "num_segments": int(sol.num_segments),
         "num_events": int(sol.num_events),
     }
+    if model is not None:
+        summary.update(_life_dict(lives))
+    return summary
 
 
 def _peaks(sol, t_min: float, windowed: bool) -> tuple:
     """The peak impact force [N] over the whole run and its time [s], the peak bearing |F| and
     ball load over t >= ``t_min`` with their times, and the ball (its index); NaN for the last
-    five unless ``windowed``. `_compiled_peaks` for a `Solution`: run eagerly, each of their
-    operations compiles by itself."""
+    five unless ``windowed``. Compiled in `_numbers` for a `Solution`: run eagerly, each of
+    their operations compiles by itself."""
     impact = metrics.peak_impact_force
     out = (impact(sol, t_min=-math.inf), metrics.peak_time(sol, impact, t_min=-math.inf))
     if not windowed:
@@ -130,25 +138,39 @@ def _peaks(sol, t_min: float, windowed: bool) -> tuple:
     return out + (metrics.peak_ball(sol, t_min=t_min),)
 
 
-_compiled_peaks = eqx.filter_jit(_peaks)
-
-
-@eqx.filter_jit
 def _lives(sol, model, t_min: float) -> tuple:
-    """ISO 281 and Lundberg–Palmgren lives of `life_summary`, in one compiled call."""
+    """ISO 281 and Lundberg–Palmgren lives of `life_summary`."""
     iso = life.iso_life(sol, model, t_min=t_min)
     lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
     return iso.load_rating, iso.equivalent_load, iso.l10, iso.l10_hours, lp.l10, lp.l10_hours
+
+
+_compiled_lives = eqx.filter_jit(_lives)
+
+
+@eqx.filter_jit
+def _numbers(sol, model, t_min: float, windowed: bool) -> tuple:
+    """`_peaks` and, given a model, `_lives` (else None), in one compiled call."""
+    return _peaks(sol, t_min, windowed), None if model is None else _lives(sol, model, t_min)
+
+
+_LIFE_NAMES = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
+
+
+def _life_dict(lives) -> dict:
+    """`life_summary`'s keys: the lives' values, or NaN for each where ``lives`` is None."""
+    if lives is None:  # the run ended before the window: no life
+        return dict.fromkeys(_LIFE_NAMES, math.nan)
+    return {name: float(x) for name, x in zip(_LIFE_NAMES, lives)}
 
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
     """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
     with the case's groove ratios, in millions of relative revolutions and hours, over t >=
     ``t_min``; NaN where the run ended before it."""
-    names = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
-    if float(sol.t_final) <= t_min:  # the run ended before the window: no life
-        return dict.fromkeys(names, math.nan)
-    return {name: float(x) for name, x in zip(names, _lives(sol, model, float(t_min)))}
+    if float(sol.t_final) <= t_min:
+        return _life_dict(None)
+    return _life_dict(_compiled_lives(sol, model, float(t_min)))
 
 
 
