@@ -83,8 +83,8 @@ def summarize(sol, t_min: float = PEAK_FROM, model=None) -> dict:
     ``t_min``), and the contacts come from the solve's records as well; the balls are numbered
     from 1.
 
-    Given the run's ``model``, the summary holds `life_summary`'s keys as well, computed in the
-    same compiled call as the peaks.
+    Given the run's ``model``, the summary holds `life_summary`'s keys as well (NaN where the
+    peaks over t >= ``t_min`` are), computed in the same compiled call as the peaks.
     """
     data = series(sol)
     times, speeds = onsets(sol)
@@ -127,8 +127,8 @@ def summarize(sol, t_min: float = PEAK_FROM, model=None) -> dict:
 def _peaks(sol, t_min: float, windowed: bool) -> tuple:
     """The peak impact force [N] over the whole run and its time [s], the peak bearing |F| and
     ball load over t >= ``t_min`` with their times, and the ball (its index); NaN for the last
-    five unless ``windowed``. Compiled in `_numbers` for a `Solution`: run eagerly, each of
-    their operations compiles by itself."""
+    five unless ``windowed``. A `Solution`'s run compiled, in `_numbers`: run eagerly, each of
+    its operations would compile by itself."""
     impact = metrics.peak_impact_force
     out = (impact(sol, t_min=-math.inf), metrics.peak_time(sol, impact, t_min=-math.inf))
     if not windowed:
