@@ -137,7 +137,9 @@ def to_float64(value) -> jax.Array:
     """``value`` as a float64 JAX array. A value known in Python is converted by NumPy and put on
     the device, which compiles nothing (``jnp.asarray`` of a number or a NumPy array compiles a
     small program per shape, once per process); a JAX array or tracer goes through
-    ``jnp.asarray``."""
+    ``jnp.asarray``. None is refused (NumPy would make it NaN)."""
+    if value is None:
+        raise TypeError("expected a number or an array of numbers; got None")
     if isinstance(value, jax.Array) or not is_concrete(*jax.tree_util.tree_leaves(value)):
         return jnp.asarray(value, jnp.float64)
     return jax.device_put(np.asarray(value, np.float64))
@@ -267,7 +269,11 @@ def checked_span(t0, t1):
 
 def checked_tolerances(rtol, atol):
     """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
-    `ValueError` now if they are concrete and not finite, negative, or both zero."""
+    `ValueError` now if they are not numbers, or concrete and not finite, negative, or both
+    zero."""
+    for name, value in (("rtol", rtol), ("atol", atol)):
+        if value is None or isinstance(value, (str, bytes, bool)):
+            raise ValueError(f"{name} must be a finite number >= 0; got {name} = {value!r}.")
     rtol, atol = to_float64(rtol), to_float64(atol)
     if is_concrete(rtol, atol):
         values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}

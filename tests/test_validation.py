@@ -178,6 +178,8 @@ BAD_INPUTS = [
      r"atol must be a finite number >= 0; got atol = nan\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=0.0, atol=0.0)),
      r"rtol and atol must not both be zero: the step control needs one\."),
+    (lambda: jb.default_controller(rtol=None), r"rtol must be a finite number >= 0; got rtol = None\."),
+    (lambda: jb.default_controller(atol="1e-10"), r"atol must be a finite number >= 0; got atol = '1e-10'\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, max_steps=0),
      r"max_steps must be an integer of at least 1; got 0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, max_steps=1e5),
