@@ -234,6 +234,23 @@ def balls_fit(n_balls, ball_diameter, pitch_diameter):
     )
 
 
+def pitch_exceeds_ball(pitch_diameter, ball_diameter):
+    """The pitch circle is wider than a ball: d_m > D [m]."""
+    xp = namespace(pitch_diameter, ball_diameter)
+    return (
+        xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
+        "pitch_diameter must exceed ball_diameter [m]",
+        pitch_diameter,
+    )
+
+
+def contact_angle_rule(contact_angle):
+    """A bearing's contact angle alpha lies in [0, pi/2) [rad]."""
+    xp = namespace(contact_angle)
+    alpha = xp.asarray(contact_angle)
+    return ((alpha < 0.0) | (alpha >= 0.5 * xp.pi), "contact_angle must lie in [0, pi/2) [rad]", contact_angle)
+
+
 # the arguments of a solve (`jaxbearing.simulate`, `simulate_one_loop`, `sweep`)
 
 

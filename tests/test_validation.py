@@ -207,6 +207,9 @@ BAD_INPUTS = [
     (lambda: jb.life.dynamic_load_rating(2, 8e-3, 39e-3), r"n_balls must be an integer of at least 3; got 2\."),
     (lambda: jb.life.dynamic_load_rating(9, -1e-3, 39e-3), r"ball_diameter must be positive \[m\]; got -0\.001\."),
     (lambda: jb.life.dynamic_load_rating(9, 8e-3, 7e-3), r"pitch_diameter must exceed ball_diameter \[m\]; got 0\.007\."),
+    (lambda: jb.life.dynamic_load_rating(9, 8e-3, 39e-3, 1.6), r"contact_angle must lie in \[0, pi/2\) \[rad\]; got 1\.6\."),
+    (lambda: jb.laws.hertz.bearing_stiffness(8.7e-3, 37.9e-3, 0.52, 0.52, 207e9, 0.3, -0.1),
+     r"contact_angle must lie in \[0, pi/2\) \[rad\]; got -0\.1\."),
     (lambda: jb.life.dynamic_load_rating(20, 8e-3, 39e-3),
      r"ball_diameter must be below pitch_diameter \* sin\(pi / n_balls\), or the balls overlap on the pitch circle \[m\]; got 0\.008\."),
     # not a number: unit strings, numeric strings, booleans, None (SI numbers only)

@@ -81,14 +81,10 @@ def elliptic_integrals(m):
 
 
 def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
-    xp = _checks.namespace(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle)
+    xp = _checks.namespace(groove_inner, groove_outer)
     return [
         _checks.positive("ball_diameter", ball_diameter, "m"),
-        (
-            xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
-            "pitch_diameter must exceed ball_diameter [m]",
-            pitch_diameter,
-        ),
+        _checks.pitch_exceeds_ball(pitch_diameter, ball_diameter),
         (
             xp.asarray(groove_inner) <= 0.5,
             "groove_inner (inner raceway groove curvature ratio f_i = r_i/D) must exceed 0.5",
@@ -99,11 +95,7 @@ def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, c
             "groove_outer (outer raceway groove curvature ratio f_o = r_o/D) must exceed 0.5",
             groove_outer,
         ),
-        (
-            (xp.asarray(contact_angle) < 0.0) | (xp.asarray(contact_angle) >= 0.5 * xp.pi),
-            "contact_angle must lie in [0, pi/2) [rad]",
-            contact_angle,
-        ),
+        _checks.contact_angle_rule(contact_angle),
     ]
 
 

@@ -42,21 +42,12 @@ def _finite(**values):
 
 
 def _geometry_rules(n_balls, ball_diameter, pitch_diameter, contact_angle):
-    xp = _checks.namespace(n_balls, ball_diameter, pitch_diameter, contact_angle)
     return [
         _checks.ball_count(n_balls),
         _checks.positive("ball_diameter", ball_diameter, "m"),
-        (
-            xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
-            "pitch_diameter must exceed ball_diameter [m]",
-            pitch_diameter,
-        ),
+        _checks.pitch_exceeds_ball(pitch_diameter, ball_diameter),
         _checks.balls_fit(n_balls, ball_diameter, pitch_diameter),
-        (
-            (xp.asarray(contact_angle) < 0.0) | (xp.asarray(contact_angle) >= 0.5 * xp.pi),
-            "contact_angle must lie in [0, pi/2) [rad]",
-            contact_angle,
-        ),
+        _checks.contact_angle_rule(contact_angle),
     ]
 
 
