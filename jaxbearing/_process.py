@@ -19,9 +19,14 @@
 2. JAX's persistent compilation cache, in `cache_dir` (``$XDG_CACHE_HOME/jaxbearing/jax``,
    by default ``~/.cache/jaxbearing/jax``): a process that meets a solve compiled before on this
    machine loads it instead of compiling it again (the compiled solve holds no host callback,
-   which the cache would refuse). Only where the process has not chosen a cache folder itself
-   (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``). Opt-out:
-   ``JAXBEARING_NO_COMPILATION_CACHE=1``.
+   which the cache would refuse). The cache keeps every program, however quickly it compiled
+   (``jax_persistent_cache_min_compile_time_secs`` 0 unless the environment sets
+   ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS``; JAX's default keeps only those that took a
+   second or more): the main job's summaries, the stiffness laws and the other small programs
+   a run meets would otherwise compile again in every process, a good part of a second run's
+   time. Only where the process has not chosen a cache folder itself
+   (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps
+   the user's settings. Opt-out: ``JAXBEARING_NO_COMPILATION_CACHE=1``.
 """
 
 from __future__ import annotations
@@ -68,4 +73,6 @@ def apply_compilation_cache() -> Path | None:
     if chosen:
         return Path(chosen)
     jax.config.update("jax_compilation_cache_dir", str(cache_dir()))
+    if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     return cache_dir()

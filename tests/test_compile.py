@@ -210,22 +210,35 @@ def test_no_private_apis_or_compiler_tricks_in_the_package():
 
 
 _CACHE_DIR = """
+import json, sys
+from pathlib import Path
 import jax
+jax.config.update("jax_enable_x64", True)
 import jaxbearing
-print(jax.config.jax_compilation_cache_dir)
+if sys.argv[1:] == ["build"]:
+    jaxbearing.cases.xu2014()  # compiles the two stiffness laws, each in well under a second
+folder = jax.config.jax_compilation_cache_dir
+stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
+print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs, stored]))
 """
 
 
 def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
-    unless the process chose a folder itself or opts out."""
+    keeping every program however quickly it compiled (the stiffness laws of a model, compiled
+    in a fraction of a second, are stored), unless the process chose a folder or a threshold
+    itself or opts out."""
 
-    def cache_dir(**env):
-        env = {**{k: v for k, v in os.environ.items() if not k.startswith(("JAXBEARING_", "JAX_COMPILATION"))}, **env}
-        done = subprocess.run([sys.executable, "-c", _CACHE_DIR], env=env, capture_output=True, text=True)
+    def cache(*args, **env):
+        drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
+        env = {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
+        done = subprocess.run([sys.executable, "-c", _CACHE_DIR, *args], env=env, capture_output=True, text=True)
         assert done.returncode == 0, done.stderr[-3000:]
-        return done.stdout.strip().splitlines()[-1]
+        return json.loads(done.stdout.strip().splitlines()[-1])
 
-    assert cache_dir(XDG_CACHE_HOME=str(tmp_path)) == str(tmp_path / "jaxbearing" / "jax")
-    assert cache_dir(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere") == "/elsewhere"
-    assert cache_dir(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == "None"
+    folder, threshold, stored = cache("build", XDG_CACHE_HOME=str(tmp_path))
+    assert (folder, threshold) == (str(tmp_path / "jaxbearing" / "jax"), 0.0)
+    assert {"jit__bearing_stiffness", "jit__impact_stiffness"} <= set(stored), stored
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="2")[1] == 2.0
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")[:2] == ["/elsewhere", 1.0]
+    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"})[:2] == [None, 1.0]
