@@ -143,31 +143,56 @@ def test_the_compiled_solve_goes_into_the_persistent_cache(tmp_path):
     assert any(p.name.startswith("jit__simulate-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
 
 
-_SENSITIVITY = """
-import sys
+_SECOND_PROCESS = """
+import json
+import equinox as eqx
 import jax
 jax.config.update("jax_enable_x64", True)
-jax.config.update("jax_compilation_cache_dir", sys.argv[1])
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
 import jaxbearing as jb
+counts = {"compiles": 0, "cache_hits": 0}
+def count(event, duration=None, **kwargs):
+    if event == "/jax/core/compile/backend_compile_duration":  # every program compiled or loaded
+        counts["compiles"] += 1
+    if event == "/jax/compilation_cache/cache_hits":
+        counts["cache_hits"] += 1
+jax.monitoring.register_event_duration_secs_listener(count)
+jax.monitoring.register_event_listener(count)
 model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth"), speed=100.0)
-value, grad = jb.sensitivity(model, jb.metrics.rms_bearing_force, ["bearing.clearance"], 0.005)
+def loss(clearance):
+    changed = eqx.tree_at(lambda m: m.bearing.clearance, model, clearance)
+    return jb.metrics.rms_bearing_force(jb.simulate(changed, 0.005))
+gradient = float(jax.grad(loss)(40e-6))
+value, tangent = jb.sensitivity(model, jb.metrics.rms_bearing_force, ["bearing.clearance"], 0.005)
 try:
     jb.sensitivity(model, jb.metrics.rms_bearing_force, ["bearing.clearance"], 0.005, max_steps=5)
+    counts["raised"] = None
 except jb.SimulationError as err:
-    print("raised:", err)
+    counts["raised"] = str(err)
+counts["gradients"] = [gradient, float(tangent["bearing.clearance"])]
+print(json.dumps(counts))
 """
 
 
-@pytest.mark.slow  # 16 s: a forward-mode compile in a fresh process
-def test_a_sensitivity_goes_into_the_persistent_cache_and_raises_on_the_host(tmp_path):
-    """`jb.sensitivity`'s compiled derivative holds no host callback (the solve's failures come
-    back as its result code, raised after the call), so a second process reuses it; a failure
+@pytest.mark.slow  # 50 s: reverse and forward mode compiled in a fresh process, then loaded in another
+def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path):
+    """A user's `jax.grad` through `simulate` and `jb.sensitivity`'s derivative hold no host
+    callback (a failure comes back as the solve's result code, raised after the call): with
+    the cache jaxbearing turns on, a second process running the same code loads every program
+    it needs, the derivatives and the small programs around them, and compiles none; a failure
     still raises the simulation's own error."""
-    done = subprocess.run([sys.executable, "-c", _SENSITIVITY, str(tmp_path)], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert any(p.name.startswith("jit__value_and_grad-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
-    assert "raised: The simulation stopped at t = " in done.stdout
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT"))}
+    env["XDG_CACHE_HOME"] = str(tmp_path)
+
+    def run():
+        done = subprocess.run([sys.executable, "-c", _SECOND_PROCESS], env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    first, second = run(), run()
+    assert first["compiles"] > first["cache_hits"], first
+    assert second["compiles"] == second["cache_hits"] > 0, second  # every program from the cache
+    assert second["gradients"] == first["gradients"]  # one compiled program, the same inputs
+    assert second["raised"].startswith("The simulation stopped at t = "), second
 
 
 _BUILT = """
