@@ -48,7 +48,7 @@ def as_float(value, name: str, unit: str) -> jax.Array:
     parameter ``name`` [unit]; anything but a number or an array of numbers (a string such as
     "40 um", a boolean, None) raises a `ValueError` naming the parameter and its unit."""
     require_x64()
-    if not isinstance(value, (str, bytes, bool, np.bool_)) and value is not None:
+    if not isinstance(value, (str, bytes, bool, np.bool_)):  # None: `to_float64` refuses it
         try:
             return to_float64(value)
         except (TypeError, ValueError):

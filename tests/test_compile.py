@@ -143,6 +143,13 @@ def test_the_compiled_solve_goes_into_the_persistent_cache(tmp_path):
     assert any(p.name.startswith("jit__simulate-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
 
 
+def _own_cache_env(**env):
+    """This process's environment without any setting of jaxbearing's or of JAX's cache, plus
+    ``env``: a child process then gets the cache that importing jaxbearing turns on."""
+    drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
+    return {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
+
+
 _SECOND_PROCESS = """
 import json
 import equinox as eqx
@@ -180,8 +187,7 @@ def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path):
     the cache jaxbearing turns on, a second process running the same code loads every program
     it needs, the derivatives and the small programs around them, and compiles none; a failure
     still raises the simulation's own error."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT"))}
-    env["XDG_CACHE_HOME"] = str(tmp_path)
+    env = _own_cache_env(XDG_CACHE_HOME=str(tmp_path))
 
     def run():
         done = subprocess.run([sys.executable, "-c", _SECOND_PROCESS], env=env, capture_output=True, text=True)
@@ -255,9 +261,9 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
     itself or opts out."""
 
     def cache(*args, **env):
-        drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
-        env = {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
-        done = subprocess.run([sys.executable, "-c", _CACHE_DIR, *args], env=env, capture_output=True, text=True)
+        done = subprocess.run(
+            [sys.executable, "-c", _CACHE_DIR, *args], env=_own_cache_env(**env), capture_output=True, text=True
+        )
         assert done.returncode == 0, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])
 
