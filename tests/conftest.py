@@ -9,14 +9,22 @@ jax.config.update("jax_enable_x64", True)
 # The suite's time is mostly compilation: each distinct static configuration of `simulate` (the
 # model's structure, the number of output times above 2 048, the segment slots that the span sets, the
 # options; not rtol, atol, max_steps or parameter values) compiles the solve anew, in each
-# pytest-xdist worker that meets it. So tests that share a compiled solve or a module-scoped
-# fixture (a simulation, a command-line run, the sweep's subprocesses) run on one worker
-# (`--dist loadgroup` in pyproject.toml), and these groups are handed out first, so that neither
-# worker ends alone on a whole group; the other tests follow one by one.
+# pytest-xdist worker that meets it before another worker has put it into JAX's persistent cache
+# (which jaxbearing turns on; workers compiling the same solve at once both compile it). So tests
+# that share a compiled solve or a module-scoped fixture (a simulation, a command-line run, the
+# sweep's subprocesses) run on one worker (`--dist loadgroup` in pyproject.toml), and these
+# groups are handed out first, so that neither worker ends alone on a whole group; the other
+# tests follow one by one.
 SHARED = {  # modules, each a group
-    "test_cli", "test_compile", "test_hertz", "test_impact", "test_life", "test_metrics_exact",
+    "test_compile", "test_hertz", "test_impact", "test_metrics_exact",
     "test_multibody", "test_one_loop", "test_pauses", "test_progress", "test_rotor_metrics", "test_sweep",
-    "test_transforms", "test_validation", "test_windows", "test_xu2014",
+    "test_xu2014",
+}
+MODULE_GROUPS = {  # modules that share compiled solves: one group
+    # the paper's case without impact, 0-0.1 s, 20001 output times
+    "paper_0.1s": ("test_cli", "test_life"),
+    # the paper's case over 0-0.005 s (up to 2048 output times), without impact and with it
+    "paper_0.005s": ("test_transforms", "test_validation", "test_windows"),
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     # the paper's case without impact, 0-0.02 s, 201 output times, default options
@@ -25,8 +33,14 @@ COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
         "test_pauses.py::test_a_failed_run_keeps_the_outputs_it_reached",
         "test_scipy_baseline.py::test_no_impact_start_agrees",
     ),
+    "paper_0.005s": (
+        "test_compile.py::test_tolerances_and_step_limit_compile_nothing_new",
+        "test_compile.py::test_fewer_output_times_compile_nothing_new",
+        "test_compile.py::test_a_python_float_put_into_the_model_compiles_nothing_new",
+    ),
 }
 _GROUP_OF = {test: group for group, tests in COMPILE_GROUPS.items() for test in tests}
+_GROUP_OF_MODULE = {module: group for group, modules in MODULE_GROUPS.items() for module in modules}
 # the longest tests (docs/testing.md), handed out before all others: a worker that starts one
 # last would run on alone, and under .ci/run's --start-before it would not start at all
 LONGEST = ("test_derivatives.py::test_derivatives_with_impact",)
@@ -39,7 +53,7 @@ def _test(item) -> str:
 
 def _group(item):
     module = item.module.__name__
-    return _GROUP_OF.get(_test(item), module if module in SHARED else None)
+    return _GROUP_OF.get(_test(item)) or _GROUP_OF_MODULE.get(module) or (module if module in SHARED else None)
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the marks

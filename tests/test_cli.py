@@ -271,10 +271,15 @@ def test_write_csv_stride_and_atomic(tmp_path):
 # ---------------------------------------------------------------------------------------------
 
 
+# the case without impact over 0.1 s at 20001 output times is the compiled solve of
+# tests/test_life.py, on the same worker (tests/conftest.py)
+QUICK = ["--t1", "0.1", "--samples", "20001", "--no-rerun"]
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("xu2014")
-    rc = cli.main(["xu2014", "--out", str(out), "--t1", "0.1", "--samples", "5001", "--no-rerun"])
+    rc = cli.main(["xu2014", "--out", str(out), *QUICK])
     return rc, out
 
 
@@ -288,7 +293,7 @@ def test_cli_writes_files(quick_run):
         header = next(csv.reader(f))
         n_rows = sum(1 for _ in f)
     assert header[:2] == ["t_s", "slider_x_m"] and "ball8_N" in header
-    assert n_rows == 5001  # every sample: they are 20 µs apart, coarser than --csv-dt (10 µs)
+    assert n_rows == 10001  # every second sample: they are 5 µs apart, the rows --csv-dt (10 µs)
 
 
 FIGURES = ("fig12_slider_target.png", "fig13_impact_force.png", "fig14_bearing_force.png", "fig15_ball_loads.png")
@@ -450,7 +455,7 @@ def test_config_overrides_change_the_result_and_are_recorded(quick_run, tmp_path
     path = tmp_path / "overrides.toml"
     path.write_text(OVERRIDES)
     out = tmp_path / "out"
-    args = ["--t1", "0.1", "--samples", "5001", "--no-rerun", "--no-figures"]  # as quick_run
+    args = [*QUICK, "--no-figures"]  # the compiled solves of quick_run
     assert cli.main(["xu2014", "--out", str(out), "--config", str(path), *args]) == 0
     new = json.loads((out / "summary.json").read_text())
     old = json.loads((default_out / "summary.json").read_text())

@@ -23,6 +23,10 @@ import jaxbearing as jb
 from jaxbearing import _process
 
 PACKAGE = pathlib.Path(jb.__file__).parent
+# [s] the paper's case without impact over this span (up to 2048 output times) is the compiled
+# solve that tests/test_validation.py and tests/test_transforms.py run too: one worker compiles
+# it once for all of them (tests/conftest.py)
+SPAN = 0.005
 
 
 @pytest.mark.slow  # 17 s: the solve compiled inside another program
@@ -39,13 +43,12 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
 
 def test_tolerances_and_step_limit_compile_nothing_new(compiled_functions):
     """rtol, atol and max_steps are values of the compiled solve: another value runs the solve
-    of the test above (the same module's worker, tests/conftest.py) without compiling it again,
-    and tighter tolerances take more steps."""
+    of `SPAN` without compiling it again, and tighter tolerances take more steps."""
     model = jb.cases.xu2014(impact=False)
-    ts = jnp.linspace(0.0, 0.002, 3)
-    loose = jb.simulate(model, 0.002, ts)
+    ts = jnp.linspace(0.0, SPAN, 3)
+    loose = jb.simulate(model, SPAN, ts)
     with compiled_functions() as compiles:
-        tight = jb.simulate(model, 0.002, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), max_steps=7_000)
+        tight = jb.simulate(model, SPAN, ts, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12), max_steps=7_000)
     assert "jit(_simulate)" not in compiles
     assert int(tight.num_steps) > int(loose.num_steps)
     np.testing.assert_allclose(tight.q, loose.q, rtol=0, atol=2e-8)
@@ -56,10 +59,10 @@ def test_fewer_output_times_compile_nothing_new(compiled_functions):
     tests above: outputs at the times two runs share are the same to the last bit, and every
     per-time field has one row per output time asked for."""
     model = jb.cases.xu2014(impact=False)
-    ts = jnp.linspace(0.0, 0.002, 21)
-    few = jb.simulate(model, 0.002, ts[::10])
+    ts = jnp.linspace(0.0, SPAN, 21)
+    few = jb.simulate(model, SPAN, ts[::10])
     with compiled_functions() as compiles:
-        many = jb.simulate(model, 0.002, ts)
+        many = jb.simulate(model, SPAN, ts)
     assert "jit(_simulate)" not in compiles
     per_time = [
         f.name for f in dataclasses.fields(many)
@@ -76,15 +79,15 @@ def test_a_python_float_put_into_the_model_compiles_nothing_new(compiled_functio
     reuses the compiled solve of the tests above, and the value takes effect: both runs are equal
     (one compiled program, the same inputs)."""
     model = jb.cases.xu2014(impact=False)
-    ts = jnp.linspace(0.0, 0.002, 3)
-    jb.simulate(model, 0.002, ts)
+    ts = jnp.linspace(0.0, SPAN, 3)
+    jb.simulate(model, SPAN, ts)
     wider = eqx.tree_at(lambda m: m.bearing.clearance, model, 60e-6)
     assert isinstance(wider.bearing.clearance, float)
     as_array = eqx.tree_at(lambda m: m.bearing.clearance, model, jnp.asarray(60e-6))
     assert as_array.bearing.clearance.weak_type  # a weakly typed array is another program to JAX
     with compiled_functions() as compiles:
-        sol = jb.simulate(wider, 0.002, ts)
-        from_array = jb.simulate(as_array, 0.002, ts)
+        sol = jb.simulate(wider, SPAN, ts)
+        from_array = jb.simulate(as_array, SPAN, ts)
     assert "jit(_simulate)" not in compiles
     np.testing.assert_array_equal(sol.q, from_array.q)
 

@@ -4,8 +4,9 @@ after a real SIGKILL), clear errors for foreign or corrupted folders, version an
 records, bitwise reproducibility across runs and processes, several devices.
 
 Every sweep here uses the same model structure, metrics, output times, solver settings and chunk
-shape, so the sweep kernel compiles once in this process (and once in each of the two
-subprocesses started at the beginning, which compile while the first tests run). The paper's
+shape, so the sweep kernel compiles once in this process; the subprocess on 4 devices, started
+first, compiles its own while the first tests run, and the one on a single device, started after
+this process's grid sweep, loads this process's from JAX's persistent cache. The paper's
 case without impact over 0.01 s takes ~1000 steps; a bearing damping of 1e8 N s/m makes the ball contacts so stiff that
 max_steps=1500 runs out at t = 0.4 ms, so those members fail (max_steps_reached) while the others
 succeed.
@@ -91,19 +92,19 @@ def assert_same(a: xr.Dataset, b: xr.Dataset, rtol: float = 0.0):
         np.testing.assert_allclose(a[name].values, b[name].values, rtol=rtol, atol=0, err_msg=name)
 
 
-def start_process(body: str, devices: int, stderr=subprocess.PIPE, flags: str = ""):
-    """A python process on ``devices`` CPU devices with the XLA flags ``flags`` (XLA_FLAGS must
-    be set before JAX is imported) that imports this file as ``t`` and runs ``body``."""
+def start_process(body: str, devices: int, stderr=subprocess.PIPE):
+    """A python process on ``devices`` CPU devices that imports this file as ``t`` and runs
+    ``body``."""
     preamble = f"""
 import pathlib, sys, time
 sys.path.insert(0, {TESTS!r})
 import jax
 jax.config.update("jax_enable_x64", True)
+import test_sweep as t  # imports jaxbearing before the first computation, as a user would
 assert jax.device_count() == {devices}, jax.devices()
-import test_sweep as t
 """
     env = dict(os.environ, JAX_PLATFORMS="cpu")
-    env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices} {flags}".strip()
+    env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={devices}"
     return subprocess.Popen([sys.executable, "-c", preamble + textwrap.dedent(body)], env=env,
                             text=True, stdout=subprocess.PIPE, stderr=stderr)
 
@@ -131,10 +132,12 @@ def four_devices(tmp_path_factory):
 
 
 @pytest.fixture(scope="module", autouse=True)
-def other_process(tmp_path_factory):
+def other_process(tmp_path_factory, grid_result):
     """A second process (one CPU device, as here) that runs the grid sweep uninterrupted, says
     READY, waits for the file ``go`` and then runs the KILL_POINTS sweep, which the test kills.
-    Started first, so that it compiles while the other tests run."""
+    Started once this process has run the grid sweep, so that it loads the compiled sweep from
+    JAX's persistent cache (jaxbearing turns it on) instead of compiling it again on a core the
+    other tests need; it does so while they run."""
     root = tmp_path_factory.mktemp("other_process")
     with (root / "stderr.txt").open("w") as log:  # the child keeps its own copy
         job = start_process(
@@ -498,7 +501,7 @@ def test_sweep_killed_by_sigkill_resumes_with_identical_results(other_process_re
     assert not list(killed.glob(".*.tmp"))  # a write cut short by the kill is cleaned up
 
     expected = {name: np.tile(reference[name].values.ravel(), 2) for name in [*METRICS, "status", "failed"]}
-    for name, values in expected.items():  # the killed process's chunks: another compilation
+    for name, values in expected.items():  # the killed process's chunks: another process
         np.testing.assert_allclose(resumed[name].values, values, rtol=METRIC_RTOL, err_msg=name)
     assert resumed.failed.values.sum() == 6  # the members with damping 1e8
     with xr.open_dataset(killed / "results.nc") as saved:
@@ -514,7 +517,8 @@ def test_sweep_killed_by_sigkill_resumes_with_identical_results(other_process_re
 def test_same_inputs_give_the_same_results(grid_result, other_process_ready, tmp_path):
     """Again in this process (the first chunk's points: the same compiled program on the same
     inputs, equal bit for bit, in the returned data and in the file) and in another process (the
-    whole grid, its own compilation: the same records, the metrics within METRIC_RTOL)."""
+    whole grid, with the program it loaded from the cache or compiled: the same records, the
+    metrics within METRIC_RTOL)."""
     reference, out, _ = grid_result
     first_chunk = {"bearing.clearance": CLEARANCES[:1], "bearing.damping": DAMPINGS}
     assert_same(run(first_chunk, out=tmp_path), reference.isel({"bearing.clearance": [0]}))
@@ -562,9 +566,9 @@ def test_two_processes_with_jax_distributed(grid_result, tmp_path):
         import jax
         jax.config.update("jax_enable_x64", True)
         jax.config.update("jax_cpu_collectives_implementation", "gloo")
+        import test_sweep as t  # imports jaxbearing before the first computation
         jax.distributed.initialize("127.0.0.1:{port}", num_processes=2, process_id=int(sys.argv[1]))
         assert jax.device_count() == 2 and jax.local_device_count() == 1
-        import test_sweep as t
         first = t.run(out={str(tmp_path)!r})
         again = t.run(out={str(tmp_path)!r})
         print(json.dumps([first.peak_ball_load.values.tolist(), first.status.values.tolist(),

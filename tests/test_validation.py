@@ -73,9 +73,10 @@ def pendulum(q0=(0.5, 0.0, 0.0), qd0=(0.0, 0.0, 0.0), speed=None):
 
 
 def simulate_with(where, value):
-    """0.02 s of the paper's case with one parameter set after construction (before these
-    checks, a NaN ball stiffness had it run for more than 15 minutes)."""
-    return jb.simulate(eqx.tree_at(where, jb.cases.xu2014(), value), 0.02)
+    """0.005 s of the paper's case with one parameter set after construction (before these
+    checks, a NaN ball stiffness had it run for more than 15 minutes): the compiled solve of
+    tests/test_windows.py's short run, on the same worker (tests/conftest.py)."""
+    return jb.simulate(eqx.tree_at(where, jb.cases.xu2014(), value), 0.005)
 
 
 # (what is built, the whole message: parameter, allowed values and the value given)
@@ -240,7 +241,7 @@ BAD_INPUTS = [
     (lambda: jb.life.dynamic_load_rating(9, float("nan"), 39e-3),
      r"ball_diameter must be finite \(not NaN or infinite\); got nan\."),
     # a contact switched on while its surfaces overlap
-    (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 0.02),  # the solve of simulate_with
+    (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 0.005),  # the solve of simulate_with
      r"contact 0 is switched on at t0 while its surfaces overlap \(penetration \[m\]\): start it apart, "
      r"or switch it on later \(active_from\) when they are apart; got 0\.01\."),
     # window edges, a metric's coordinate
@@ -365,7 +366,7 @@ def test_a_contact_switched_on_while_overlapping_is_an_error():
     """The paper's circles overlap at 1 ms: the event value jumps from -1 (off) to +10 mm (on)
     there, which the event's root finder reports as a jump, and the switch as an error."""
     with pytest.raises(Exception, match=r"a contact switched on \(its active_from\) while its surfaces overlap"):
-        jb.simulate(jb.cases.xu2014(contact_on=0.001), 0.02)  # the compiled solve of simulate_with
+        jb.simulate(jb.cases.xu2014(contact_on=0.001), 0.005)  # the compiled solve of simulate_with
 
 
 def test_traced_nan_output_times_are_checked():
