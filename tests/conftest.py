@@ -43,7 +43,12 @@ _GROUP_OF = {test: group for group, tests in COMPILE_GROUPS.items() for test in 
 _GROUP_OF_MODULE = {module: group for group, modules in MODULE_GROUPS.items() for module in modules}
 # the longest tests (docs/testing.md), handed out before all others: a worker that starts one
 # last would run on alone, and under .ci/run's --start-before it would not start at all
-LONGEST = ("test_derivatives.py::test_derivatives_with_impact",)
+LONGEST = (
+    "test_derivatives.py::test_derivatives_with_impact",  # the slow set's
+    # the default set's longest that share no compiled solve with other tests (about 10-17 s)
+    "test_tune.py::test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance",
+    "test_tune.py::test_a_batch_of_tangents_matches_central_differences",
+)
 
 
 def _test(item) -> str:
