@@ -524,7 +524,7 @@ def _child(item, settings, devices=1, platform="cpu", xla_flags="", xla_defaults
     imports jaxbearing as it comes (its process-wide settings, `jaxbearing._process`), except,
     with ``xla_defaults``, ``JAXBEARING_KEEP_XLA_FLAGS=1`` (XLA's defaults). Its persistent
     compilation cache is in ``cache_dir``, else in an empty folder of its own."""
-    from jaxbearing._process import CACHE_OPT_OUT, LOOP_KERNELS_FLAG, OPT_OUT
+    from jaxbearing._process import OPT_OUT
 
     cmd = [sys.executable, str(Path(__file__).resolve()), "--item", item]
     for key, value in {**settings, **options}.items():
@@ -532,9 +532,7 @@ def _child(item, settings, devices=1, platform="cpu", xla_flags="", xla_defaults
             cmd.append(f"--{key.replace('_', '-')}")
         elif value is not False:
             cmd += [f"--{key.replace('_', '-')}", str(value)]
-    env = dict(os.environ)
-    env.pop(OPT_OUT, None)
-    env.pop(CACHE_OPT_OUT, None)
+    env = _fresh_env()
     if xla_defaults:
         env[OPT_OUT] = "1"
     own_cache = None if cache_dir else tempfile.TemporaryDirectory()
@@ -544,9 +542,7 @@ def _child(item, settings, devices=1, platform="cpu", xla_flags="", xla_defaults
         env.setdefault("JAX_PLATFORMS", "cpu")
     else:
         env.pop("JAX_PLATFORMS", None)
-    # without the flag this process got by importing jaxbearing: each child's import decides
-    inherited = [flag for flag in env.get("XLA_FLAGS", "").split() if flag != LOOP_KERNELS_FLAG]
-    env["XLA_FLAGS"] = " ".join(inherited + xla_flags.split())
+    env["XLA_FLAGS"] = " ".join(env["XLA_FLAGS"].split() + xla_flags.split())
     try:
         done = subprocess.run(cmd, env=env, capture_output=True, text=True)
     finally:
@@ -555,6 +551,19 @@ def _child(item, settings, devices=1, platform="cpu", xla_flags="", xla_defaults
     if done.returncode != 0:
         raise RuntimeError(f"benchmark item {item} {options} failed:\n{done.stderr[-4000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _fresh_env() -> dict:
+    """This process's environment for a child that imports jaxbearing as a user's process does:
+    without jaxbearing's opt-outs, and without the loop flag this process got by importing it
+    (each child's import decides)."""
+    from jaxbearing._process import CACHE_OPT_OUT, LOOP_KERNELS_FLAG, OPT_OUT
+
+    env = dict(os.environ)
+    env.pop(OPT_OUT, None)
+    env.pop(CACHE_OPT_OUT, None)
+    env["XLA_FLAGS"] = " ".join(flag for flag in env.get("XLA_FLAGS", "").split() if flag != LOOP_KERNELS_FLAG)
+    return env
 
 
 def _fmt(x, spec):
@@ -777,17 +786,14 @@ def _main_job_rows(args, results):
     """`MAIN_JOB` ``args.pairs`` times: from an empty cache folder of its own, then again from
     the cache that run filled, each in a fresh process with the environment a user's shell gives
     it (none of this process's cache settings or opt-outs); the walls and their ratio."""
-    from jaxbearing._process import CACHE_OPT_OUT, LOOP_KERNELS_FLAG, OPT_OUT
-
     print("\nthe main job (jaxbearing xu2014), from an empty cache and then again")
+    env = _fresh_env()
+    for name in ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"):
+        env.pop(name, None)
     pairs = []
     for _ in range(args.pairs):
         with tempfile.TemporaryDirectory() as home:
-            env = dict(os.environ)
-            for name in (CACHE_OPT_OUT, OPT_OUT, "JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"):
-                env.pop(name, None)
-            flags = [f for f in env.get("XLA_FLAGS", "").split() if f != LOOP_KERNELS_FLAG]
-            env.update(XDG_CACHE_HOME=home, XLA_FLAGS=" ".join(flags))
+            env["XDG_CACHE_HOME"] = home
             cmd = [sys.executable, *MAIN_JOB, "--out", str(Path(home) / "out")]
             if args.t1 != T1:
                 cmd += ["--t1", str(args.t1)]
