@@ -253,7 +253,8 @@ if sys.argv[1:] == ["build"]:
     jaxbearing.cases.xu2014()  # compiles the two stiffness laws, each in well under a second
 folder = jax.config.jax_compilation_cache_dir
 stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
-print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs, stored]))
+solves = jaxbearing._stored.folder()
+print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs, stored, solves and str(solves)]))
 """
 
 
@@ -261,7 +262,8 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the stiffness laws of a model, compiled
     in a fraction of a second, are stored), unless the process chose a folder or a threshold
-    itself or opts out."""
+    itself or opts out; the stored solves are kept in the cache's folder, wherever it is, and
+    not at all with the opt-out."""
 
     def cache(*args, **env):
         done = subprocess.run(
@@ -270,9 +272,11 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
         assert done.returncode == 0, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])
 
-    folder, threshold, stored = cache("build", XDG_CACHE_HOME=str(tmp_path))
+    folder, threshold, stored, solves = cache("build", XDG_CACHE_HOME=str(tmp_path))
     assert (folder, threshold) == (str(tmp_path / "jaxbearing" / "jax"), 0.0)
     assert {"jit__bearing_stiffness", "jit__impact_stiffness"} <= set(stored), stored
+    assert solves == str(tmp_path / "jaxbearing" / "jax" / "jaxbearing-solves")  # tests/test_stored.py
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="2")[1] == 2.0
-    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")[:2] == ["/elsewhere", 1.0]
-    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"})[:2] == [None, 1.0]
+    elsewhere = cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")
+    assert elsewhere == ["/elsewhere", 1.0, [], "/elsewhere/jaxbearing-solves"]
+    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, [], None]
