@@ -2,7 +2,7 @@
 
 JAX's persistent compilation cache (`jaxbearing._process`) spares a process the compiling of a
 solve met before on this machine, but not the tracing and lowering that come first and make the
-program's key: for the paper's case about a second of each run of ``jaxbearing xu2014``. Here
+program's key (docs/performance.md gives their share of a run). Here
 `call` keeps the lowered program itself (`jax.export`: StableHLO, serialized) in `folder`,
 under a key of everything the program was built from, and a later process calls it from there:
 it lowers a small wrapper around the stored program, and the compile is served by JAX's cache.
@@ -178,7 +178,7 @@ def key(name: str, args) -> str | None:
     except (_Unknown, ValueError, RecursionError):  # ValueError: a closure's empty cell
         return None
     backend = jax.devices()[0]
-    config = sorted((name, repr(value)) for name, value in jax.config.values.items())
+    config = sorted((option, repr(value)) for option, value in jax.config.values.items())
     h = hashlib.sha256(code.encode())
     h.update(repr((backend.platform, backend.device_kind, config, parts)).encode())
     return h.hexdigest()

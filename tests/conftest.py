@@ -1,4 +1,5 @@
 import contextlib
+import os
 import time
 
 import jax
@@ -104,3 +105,16 @@ def compiled_functions():
             jax.monitoring.unregister_event_duration_listener(listener)
 
     return collect
+
+
+@pytest.fixture
+def own_cache_env():
+    """A function of ``**env``: this process's environment without any setting of jaxbearing's
+    or of JAX's cache, plus ``env``; a child process then gets the cache that importing
+    jaxbearing turns on."""
+
+    def environment(**env):
+        drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
+        return {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
+
+    return environment

@@ -146,13 +146,6 @@ def test_the_compiled_solve_goes_into_the_persistent_cache(tmp_path):
     assert any(p.name.startswith("jit__simulate-") for p in tmp_path.iterdir()), sorted(tmp_path.iterdir())
 
 
-def _own_cache_env(**env):
-    """This process's environment without any setting of jaxbearing's or of JAX's cache, plus
-    ``env``: a child process then gets the cache that importing jaxbearing turns on."""
-    drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
-    return {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
-
-
 _SECOND_PROCESS = """
 import json
 import equinox as eqx
@@ -184,13 +177,13 @@ print(json.dumps(counts))
 
 
 @pytest.mark.slow  # 50 s: reverse and forward mode compiled in a fresh process, then loaded in another
-def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path):
+def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path, own_cache_env):
     """A user's `jax.grad` through `simulate` and `jb.sensitivity`'s derivative hold no host
     callback (a failure comes back as the solve's result code, raised after the call): with
     the cache jaxbearing turns on, a second process running the same code loads every program
     it needs, the derivatives and the small programs around them, and compiles none; a failure
     still raises the simulation's own error."""
-    env = _own_cache_env(XDG_CACHE_HOME=str(tmp_path))
+    env = own_cache_env(XDG_CACHE_HOME=str(tmp_path))
 
     def run():
         done = subprocess.run([sys.executable, "-c", _SECOND_PROCESS], env=env, capture_output=True, text=True)
@@ -258,7 +251,7 @@ print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs,
 """
 
 
-def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
+def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cache_env):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the stiffness laws of a model, compiled
     in a fraction of a second, are stored), unless the process chose a folder or a threshold
@@ -267,7 +260,7 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path):
 
     def cache(*args, **env):
         done = subprocess.run(
-            [sys.executable, "-c", _CACHE_DIR, *args], env=_own_cache_env(**env), capture_output=True, text=True
+            [sys.executable, "-c", _CACHE_DIR, *args], env=own_cache_env(**env), capture_output=True, text=True
         )
         assert done.returncode == 0, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])

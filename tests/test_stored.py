@@ -5,7 +5,6 @@ is not made for code from outside the libraries it hashes (the opt-out: tests/te
 
 import functools
 import json
-import os
 import subprocess
 import sys
 import warnings
@@ -39,23 +38,20 @@ print(json.dumps({"traced": len(traced), "q": sol.q.tolist(), "files": files}))
 """
 
 
-def _run(**env):
-    # this process's environment without jaxbearing's or JAX's cache settings, plus env
-    drop = ("JAXBEARING_", "JAX_COMPILATION", "JAX_PERSISTENT")
-    env = {**{k: v for k, v in os.environ.items() if not k.startswith(drop)}, **env}
+def _run(env):
     done = subprocess.run([sys.executable, "-c", _RUN], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def test_a_second_process_runs_the_stored_solve_without_tracing_it(tmp_path):
+def test_a_second_process_runs_the_stored_solve_without_tracing_it(tmp_path, own_cache_env):
     """The first process traces the rotor's solve and stores it; the next runs it from the store
     without tracing it, with the same positions (one
     program, the same inputs)."""
-    env = {"XDG_CACHE_HOME": str(tmp_path)}
-    first = _run(**env)
+    env = own_cache_env(XDG_CACHE_HOME=str(tmp_path))
+    first = _run(env)
     assert first["traced"] >= 1 and len(first["files"]) == 1, first
-    second = _run(**env)
+    second = _run(env)
     assert second["traced"] == 0 and second["files"] == first["files"], second
     np.testing.assert_allclose(second["q"], first["q"], rtol=1e-13, atol=0)
 
