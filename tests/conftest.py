@@ -17,13 +17,15 @@ jax.config.update("jax_enable_x64", True)
 # groups are handed out first, so that neither worker ends alone on a whole group; the other
 # tests follow one by one.
 SHARED = {  # modules, each a group
-    "test_compile", "test_hertz", "test_impact", "test_metrics_exact",
-    "test_multibody", "test_one_loop", "test_pauses", "test_progress", "test_rotor_metrics", "test_sweep",
-    "test_xu2014",
+    "test_compile", "test_hertz", "test_impact",
+    "test_multibody", "test_progress", "test_rotor_metrics", "test_sweep",
 }
 MODULE_GROUPS = {  # modules that share compiled solves: one group
-    # the paper's case without impact, 0-0.1 s, 20001 output times
-    "paper_0.1s": ("test_cli", "test_life"),
+    # the paper's case over 0-0.2 s, up to 2048 output times, with impact and without
+    "paper_0.2s": ("test_xu2014", "test_cli", "test_life", "test_one_loop"),
+    # the paper's case without impact over 0-0.02 s at 201 output times (below), pauses and
+    # the metrics against dense samples
+    "free_0.02s": ("test_pauses", "test_metrics_exact"),
     # the paper's case over 0-0.005 s (up to 2048 output times), without impact and with it
     "paper_0.005s": ("test_transforms", "test_validation", "test_windows"),
 }
@@ -31,8 +33,12 @@ COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     # the paper's case without impact, 0-0.02 s, 201 output times, default options
     "free_0.02s": (
         "test_derivatives.py::test_sensitivities_without_impact[paper]",
-        "test_pauses.py::test_a_failed_run_keeps_the_outputs_it_reached",
         "test_scipy_baseline.py::test_no_impact_start_agrees",
+    ),
+    # the four-bar over two crank turns, up to 2048 output times: the page's example, then the test
+    "four_bar": (
+        "test_docs.py::test_the_page_s_code_runs[docs/mechanisms.md]",
+        "test_four_bar.py::test_bearing_force_converges_to_the_rigid_pin_reaction",
     ),
     "paper_0.005s": (
         "test_compile.py::test_tolerances_and_step_limit_compile_nothing_new",
@@ -54,7 +60,8 @@ LONGEST = (
 
 def _test(item) -> str:
     """``module.py::test[param]``, the form of COMPILE_GROUPS and LONGEST."""
-    return item.nodeid.rsplit("/", 1)[-1]
+    path, _, test = item.nodeid.partition("::")
+    return f"{path.rsplit('/', 1)[-1]}::{test}"
 
 
 def _group(item):

@@ -377,14 +377,15 @@ def test_ring_point_rule_on_a_fixed_load(model):
         life.lp_life(sol, model, t_min=None)
 
 
-T1 = 0.1  # [s] one crank revolution of cases.xu2014
+T1 = 0.2  # [s] two crank revolutions of cases.xu2014
 
 
 @pytest.fixture(scope="module")
 def simulated(model):
-    """cases.xu2014 without impact over one crank revolution, sampled uniformly and on a
-    clustered grid of as many times (one compiled solve)."""
-    n = 20001
+    """cases.xu2014 without impact over two crank revolutions, sampled uniformly and on a
+    clustered grid of as many times: one compiled solve, that of tests/test_xu2014.py and of
+    the command line's quick run (tests/test_cli.py)."""
+    n = 2001
     uniform = jnp.linspace(0.0, T1, n)
     clustered = T1 * jnp.linspace(0.0, 1.0, n) ** 3
     return [jb.simulate(model, T1, ts) for ts in (uniform, clustered)]
@@ -408,8 +409,9 @@ def _lives(sol, model, **kw):
 
 def test_life_of_a_solution_does_not_depend_on_the_output_times(model, simulated):
     """The lives are integrals of the solution (`FatigueStats`), so two samplings give the same
-    value to round-off; the same rules applied to the 5 us samples of the solution
-    (trapezoid rule) agree within 1e-5 (their quadrature error; measured 2e-7 or better)."""
+    value to round-off; the same rules applied to the 100 us samples of the solution
+    (trapezoid rule) agree within their quadrature error: measured up to 7.4e-6 (5e-8 at 5 us
+    samples, about h^2), so 3e-5."""
     uniform, clustered = simulated
     a, b = _lives(uniform, model), _lives(clustered, model)
     np.testing.assert_allclose(a, b, rtol=1e-12)
@@ -429,7 +431,7 @@ def test_life_of_a_solution_does_not_depend_on_the_output_times(model, simulated
         float,
     )
     print("lives from the solution:", a)
-    np.testing.assert_allclose(a[[0, 1, 4, 5, 7, 8]], sampled, rtol=1e-5)
+    np.testing.assert_allclose(a[[0, 1, 4, 5, 7, 8]], sampled, rtol=3e-5)
     # the window's edges must be stops of the solve
     with pytest.raises(ValueError, match="window_edges"):
         life.iso_life(uniform, model, t_min=0.0501)

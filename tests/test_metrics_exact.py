@@ -4,6 +4,7 @@ interval between its stops the peaks and integrals over every accepted step's in
 edges, and the smooth metrics keep exact derivatives (checked in tests/test_derivatives.py)."""
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -14,24 +15,25 @@ from jaxbearing import metrics as M
 from jaxbearing import report
 from jaxbearing.solution import INT_TIME
 
-T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases, no impact yet
+T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases (no impact yet)
 EDGE = 0.013  # [s] a window edge that is no stop of `dense`
-STOP = 0.01  # [s] a window edge given to `dense` and `coarse` as a stop
+STOP = 0.01  # [s] a window edge that is a stop of `dense` and `coarse`: the model's window start
 
 
 @pytest.fixture(scope="module")
 def model():
-    return jb.cases.xu2014(impact=True)
+    return jb.cases.xu2014(impact=False, window_start=STOP)
 
 
 @pytest.fixture(scope="module")
 def dense(model):
-    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 20001), options=jb.SolveOptions(window_edges=(STOP,)))
+    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 20001))
 
 
 @pytest.fixture(scope="module")
 def coarse(model):
-    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 201), options=jb.SolveOptions(window_edges=(STOP,)))
+    # the compiled solve of tests/conftest.py's "free_0.02s" (the window start is a value)
+    return jb.simulate(model, T1, jnp.linspace(0.0, T1, 201))
 
 
 def span(sol):
@@ -50,7 +52,7 @@ def test_intervals_cover_the_span_exactly(dense):
     duration = np.asarray(s.integrals)[valid, INT_TIME]
     np.testing.assert_allclose(duration, ends - starts, rtol=1e-12)
     assert span(dense) == pytest.approx(T1, rel=1e-12)
-    # one entry per stop (STOP and T1; 0.04 s lies beyond T1), however many steps and events
+    # one entry per stop (STOP and T1), however many steps and events
     assert int(np.sum(valid)) == 2 < int(dense.num_events)
 
 
@@ -166,7 +168,7 @@ def test_window_edges_must_be_stops(model, coarse):
     assert np.isnan(float(jax.jit(lambda s: M.rms_bearing_force(s, t_min=EDGE))(coarse)))
     with pytest.raises(ValueError, match="p = 16"):
         M.smooth_peak_ball_load(coarse, p=8.0)
-    sol = jb.simulate(model, T1, jnp.linspace(0.0, T1, 201), options=jb.SolveOptions(window_edges=(EDGE,)))
+    sol = jb.simulate(eqx.tree_at(lambda m: m.window_start, model, EDGE), T1, jnp.linspace(0.0, T1, 201))
     before, after = M.rms_bearing_force(sol, 0.0, EDGE), M.rms_bearing_force(sol, t_min=EDGE)
     whole = M.rms_bearing_force(sol, t_min=0.0)
     mean_square = (before**2 * EDGE + after**2 * (T1 - EDGE)) / T1

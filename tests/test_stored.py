@@ -34,7 +34,8 @@ _simulate.core_start = counted
 sol = jb.simulate(jb.cases.rotor(jb.cases.skf98205()), 0.01, jax.numpy.linspace(0.0, 0.01, 5))
 folder = _stored.folder()
 files = sorted(p.name for p in folder.iterdir()) if folder.is_dir() else []
-print(json.dumps({"traced": len(traced), "q": sol.q.tolist(), "files": files}))
+cached = sorted(p.name.split("-")[0] for p in folder.parent.iterdir())  # JAX's own cache
+print(json.dumps({"traced": len(traced), "q": sol.q.tolist(), "files": files, "cached": cached}))
 """
 
 
@@ -45,12 +46,15 @@ def _run(env):
 
 
 def test_a_second_process_runs_the_stored_solve_without_tracing_it(tmp_path, own_cache_env):
-    """The first process traces the rotor's solve and stores it; the next runs it from the store
-    without tracing it, with the same positions (one
-    program, the same inputs)."""
+    """The first process traces the rotor's solve and stores it, and JAX's persistent cache
+    writes its compiled form (the compiled solve holds no host callback: checks and failures
+    come back as result codes, and the cache refuses any program with a callback); the next
+    process runs it from the store without tracing it, with the same positions (one program,
+    the same inputs)."""
     env = own_cache_env(XDG_CACHE_HOME=str(tmp_path))
     first = _run(env)
     assert first["traced"] >= 1 and len(first["files"]) == 1, first
+    assert "jit__simulate" in first["cached"], first["cached"]
     second = _run(env)
     assert second["traced"] == 0 and second["files"] == first["files"], second
     np.testing.assert_allclose(second["q"], first["q"], rtol=1e-13, atol=0)
