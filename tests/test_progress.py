@@ -41,7 +41,7 @@ def reports():
 
 def rotor():
     """A spinning rotor in the paper's bearing: over 0.05 s its balls engage and release about
-    50 times (events) in more than 10 segments, and it compiles in half the paper's case's time."""
+    50 times (events) in more than 10 segments, a smaller program than the paper's case."""
     return jb.cases.rotor(jb.cases.skf98205(), speed=100.0)
 
 
