@@ -97,6 +97,7 @@ def window(ts, t_min=None, t_max=None) -> jax.Array:
     return w
 
 
+@jax.jit
 def window_weights(ts, lo, hi) -> jax.Array:
     """Weights w [s] with sum_i w_i f(t_i) = the integral over ``[lo, hi]`` of the piecewise-linear
     interpolant of the samples f(t_i) (trapezoid rule, each interval cut at the window's edges).
@@ -122,9 +123,9 @@ def check_window(ts, weights, t_min, t_max, need="one"):
     """A window whose weights [s] are all zero holds fewer than ``need`` output times: raise a
     `ValueError` when ``ts`` and the window ``[t_min, t_max]`` [s] are concrete; traced, the
     metrics of that window are NaN."""
-    _check_not_empty(
-        jnp.any(weights > 0), t_min, t_max, ts[0], ts[-1], f"at least {need} of the output times, which span"
-    )
+    if is_concrete(ts, weights, t_min, t_max) and not np.any(np.asarray(weights) > 0):
+        what = f"at least {need} of the output times, which span"
+        raise ValueError(_empty_window(t_min, t_max, ts[0], ts[-1], what) + ".")
 
 
 def _check_not_empty(filled, t_min, t_max, first, last, what):

@@ -26,7 +26,8 @@ MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the paper's case without impact over 0-0.02 s at 201 output times (below), pauses and
     # the metrics against dense samples
     "free_0.02s": ("test_pauses", "test_metrics_exact"),
-    # the paper's case over 0-0.005 s (up to 2048 output times), without impact and with it
+    # the paper's case over 0-0.005 s (up to 2048 output times; its contact, switched on at
+    # 0.05 s, does not act yet) and its vmapped batch without impact
     "paper_0.005s": ("test_transforms", "test_validation", "test_windows"),
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
@@ -39,6 +40,11 @@ COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     "four_bar": (
         "test_docs.py::test_the_page_s_code_runs[docs/mechanisms.md]",
         "test_four_bar.py::test_bearing_force_converges_to_the_rigid_pin_reaction",
+    ),
+    # the paper's case, a 2 x 2 sweep of clearance and restitution over 0.2 s, default metrics
+    "paper_sweep": (
+        "test_notebooks.py::test_notebook_runs[sweeps.ipynb]",
+        "test_studies.py::test_study_runs_quick[clearance_sweep.py]",
     ),
     "paper_0.005s": (
         "test_compile.py::test_tolerances_and_step_limit_compile_nothing_new",

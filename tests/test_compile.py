@@ -24,9 +24,9 @@ import jaxbearing as jb
 from jaxbearing import _process
 
 PACKAGE = pathlib.Path(jb.__file__).parent
-# [s] the paper's case without impact over this span (up to 2048 output times) is the compiled
-# solve that tests/test_validation.py and tests/test_transforms.py run too: one worker compiles
-# it once for all of them (tests/conftest.py)
+# [s] the paper's case over this span (its contact is switched on at 0.05 s: no impact yet), up
+# to 2048 output times, is the compiled solve that tests/test_validation.py and
+# tests/test_windows.py run too: one worker compiles it once for all of them (tests/conftest.py)
 SPAN = 0.005
 
 
@@ -45,7 +45,7 @@ def test_simulate_inside_a_user_jit_equals_the_top_level_call():
 def test_tolerances_and_step_limit_compile_nothing_new(compiled_functions):
     """rtol, atol and max_steps are values of the compiled solve: another value runs the solve
     of `SPAN` without compiling it again, and tighter tolerances take more steps."""
-    model = jb.cases.xu2014(impact=False)
+    model = jb.cases.xu2014()
     ts = jnp.linspace(0.0, SPAN, 3)
     loose = jb.simulate(model, SPAN, ts)
     with compiled_functions() as compiles:
@@ -59,7 +59,7 @@ def test_fewer_output_times_compile_nothing_new(compiled_functions):
     """Called at the top level, up to 2048 output times share one compiled solve, that of the
     tests above: outputs at the times two runs share are the same to the last bit, and every
     per-time field has one row per output time asked for."""
-    model = jb.cases.xu2014(impact=False)
+    model = jb.cases.xu2014()
     ts = jnp.linspace(0.0, SPAN, 21)
     few = jb.simulate(model, SPAN, ts[::10])
     with compiled_functions() as compiles:
@@ -79,7 +79,7 @@ def test_a_python_float_put_into_the_model_compiles_nothing_new(compiled_functio
     """`eqx.tree_at` with a Python float (the documented pattern) or a weakly typed JAX array
     reuses the compiled solve of the tests above, and the value takes effect: both runs are equal
     (one compiled program, the same inputs)."""
-    model = jb.cases.xu2014(impact=False)
+    model = jb.cases.xu2014()
     ts = jnp.linspace(0.0, SPAN, 3)
     jb.simulate(model, SPAN, ts)
     wider = eqx.tree_at(lambda m: m.bearing.clearance, model, 60e-6)

@@ -128,12 +128,33 @@ def test_segment_steps_must_be_positive():
         jb.simulate(_model(), T1, TS, options=jb.SolveOptions(segment_steps=0))
 
 
+def cradle():
+    """Three 10 mm steel spheres in a row on frictionless slides, 20 um apart; the first comes at
+    1 m/s: it strikes the second at 20 us (for about 15 us), which then strikes the third (at
+    about 55 us): two contact onsets (a small mechanism, which compiles in half the paper's time)."""
+    from jaxbearing.multibody import Body, CircleContact, Mechanism, Translational
+
+    r, gap = 0.005, 2e-5
+    impact = jb.Impact.from_geometry(radius_j=r, radius_k=r, restitution=1.0)
+    pitch = 2 * r + gap
+    return Mechanism(
+        [Body(0.004, 1e-8)] * 3,
+        [Translational(k) for k in range(3)],
+        [0.0, 0.0, 0.0, pitch, 0.0, 0.0, 2 * pitch, 0.0, 0.0],
+        [1.0] + [0.0] * 8,
+        contacts=tuple(CircleContact(k, (0.0, 0.0), r, k + 1, (0.0, 0.0), r, impact) for k in (0, 1)),
+    )
+
+
 def test_more_onsets_than_recorded_fail_loudly():
     """`Solution.contacts` records ``max_onsets`` contact onsets; a run with more fails (a wrong
     answer, contacts silently dropped, is worse than an error), naming the option to raise."""
-    model, ts = _model(), jnp.array([0.0, 0.095])  # 6 onsets by 0.095 s (docs/xu2014.md)
-    sol = jb.simulate(model, 0.095, ts, options=jb.SolveOptions(max_onsets=2), throw=False)
+    model, t1 = cradle(), 5e-4
+    ts = jnp.array([0.0, t1])
+    sol = jb.simulate(model, t1, ts, options=jb.SolveOptions(max_onsets=1), throw=False)
     assert sol.result == jb.RESULTS.max_onsets_reached
-    assert int(sol.contacts.count) == 2 and float(sol.t_final) < 0.095
+    assert int(sol.contacts.count) == 1 and float(sol.t_final) < t1  # stopped at the second strike
+    assert float(sol.contacts.time[0]) == pytest.approx(2e-5, rel=1e-9)  # the gap over the speed
+    assert float(sol.t_final) > 4e-5  # the first strike's end, then the second sphere's gap
     with pytest.raises(jb.SimulationError, match="max_onsets"):
-        jb.simulate(model, 0.095, ts, options=jb.SolveOptions(max_onsets=2))
+        jb.simulate(model, t1, ts, options=jb.SolveOptions(max_onsets=1))

@@ -302,8 +302,9 @@ def _config_file(data: bytes):
 
 
 def _short_solution():
-    # the compiled solve of the tests of values changed after construction and of solver failures
-    return jb.simulate(jb.cases.xu2014(impact=False), 0.01, jnp.linspace(0.0, 0.01, 3))
+    # the compiled solve of simulate_with, of the tests of values changed after construction and
+    # of solver failures (the paper's case with its contact, switched on at 0.05 s)
+    return jb.simulate(jb.cases.xu2014(), 0.005, jnp.linspace(0.0, 0.005, 3))
 
 
 @pytest.mark.parametrize("make, message", BAD_INPUTS)
@@ -334,9 +335,9 @@ def test_overconstrained_mechanism_is_rejected():
 
 def test_values_changed_after_construction_are_checked_in_simulate():
     """eqx.tree_at bypasses constructors: simulate checks the values again."""
-    model = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(impact=False), -1e-5)
+    model = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(), -1e-5)
     with pytest.raises(Exception, match="bearing clearance must be zero or positive"):
-        jb.simulate(model, 0.01, jnp.linspace(0.0, 0.01, 3))  # the compiled solve of the tests below
+        jb.simulate(model, 0.005, jnp.linspace(0.0, 0.005, 3))  # the compiled solve of simulate_with
 
 
 def _run_with_clearance(c):
@@ -357,9 +358,10 @@ def test_traced_bad_values_are_checked_under_vmap(bad, message):
 def test_initial_state_is_checked_at_t0():
     """The crank's driver turns it at a fixed speed from t = 0: q0 is consistent at t0 = 0, not
     at t0 = 5 ms, and a run started there would drift by the crank's turn since t = 0."""
-    model = jb.cases.xu2014(impact=False)
+    model = jb.cases.xu2014()
     with pytest.raises(Exception, match=r"initial positions q0 violate joint 1 \(Driver, crank\) at t0"):
-        jb.simulate(model, 0.015, jnp.linspace(0.005, 0.015, 3), options=jb.SolveOptions(t0=0.005))
+        # the compiled solve of simulate_with (the same span; t0 is a value of it)
+        jb.simulate(model, 0.01, jnp.linspace(0.005, 0.01, 3), options=jb.SolveOptions(t0=0.005))
 
 
 def test_a_contact_switched_on_while_overlapping_is_an_error():
@@ -384,17 +386,17 @@ def test_traced_non_finite_times_are_checked():
 
 
 def test_solver_failure_raises_with_time_and_advice():
-    model = jb.cases.xu2014(impact=False)
-    with pytest.raises(jb.SimulationError, match=r"stopped at t = .* s of t1 = 0.01 s.*max_steps"):
-        jb.simulate(model, 0.01, max_steps=5)
+    model = jb.cases.xu2014()
+    with pytest.raises(jb.SimulationError, match=r"stopped at t = .* s of t1 = 0.005 s.*max_steps"):
+        jb.simulate(model, 0.005, max_steps=5)  # the compiled solve of simulate_with
 
 
 def test_solver_failure_without_throw_reports_and_marks_nan():
-    model = jb.cases.xu2014(impact=False)
-    sol = jb.simulate(model, 0.01, max_steps=5, throw=False)  # the solve of the test above
+    model = jb.cases.xu2014()
+    sol = jb.simulate(model, 0.005, max_steps=5, throw=False)  # the solve of the test above
     ts = sol.ts
     assert sol.result == jb.RESULTS.max_steps_reached
-    assert 0.0 < float(sol.t_final) < 0.01
+    assert 0.0 < float(sol.t_final) < 0.005
     after = np.asarray(ts) > float(sol.t_final)
     assert np.isnan(np.asarray(sol.q)[after]).all()
     assert np.isnan(np.asarray(sol.ball_loads)[after]).all()
