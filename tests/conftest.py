@@ -27,7 +27,7 @@ MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the metrics against dense samples
     "free_0.02s": ("test_pauses", "test_metrics_exact"),
     # the paper's case over 0-0.005 s (up to 2048 output times; its contact, switched on at
-    # 0.05 s, does not act yet) and its vmapped batch without impact
+    # 0.05 s, does not act yet)
     "paper_0.005s": ("test_transforms", "test_validation", "test_windows"),
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
