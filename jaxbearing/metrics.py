@@ -123,9 +123,11 @@ def check_window(ts, weights, t_min, t_max, need="one"):
     """A window whose weights [s] are all zero holds fewer than ``need`` output times: raise a
     `ValueError` when ``ts`` and the window ``[t_min, t_max]`` [s] are concrete; traced, the
     metrics of that window are NaN."""
-    if is_concrete(ts, weights, t_min, t_max) and not np.any(np.asarray(weights) > 0):
+    if is_concrete(ts, weights):  # in NumPy: eager JAX operations would each compile a program
+        t = np.asarray(ts)
+        filled = bool(np.any(np.asarray(weights) > 0))
         what = f"at least {need} of the output times, which span"
-        raise ValueError(_empty_window(t_min, t_max, ts[0], ts[-1], what) + ".")
+        _check_not_empty(filled, t_min, t_max, t[0], t[-1], what)
 
 
 def _check_not_empty(filled, t_min, t_max, first, last, what):

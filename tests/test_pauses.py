@@ -131,7 +131,7 @@ def test_segment_steps_must_be_positive():
 def cradle():
     """Three 10 mm steel spheres in a row on frictionless slides, 20 um apart; the first comes at
     1 m/s: it strikes the second at 20 us (for about 15 us), which then strikes the third (at
-    about 55 us): two contact onsets (a small mechanism, which compiles in half the paper's time)."""
+    about 55 us): two contact onsets (a smaller program than the paper's case)."""
     from jaxbearing.multibody import Body, CircleContact, Mechanism, Translational
 
     r, gap = 0.005, 2e-5

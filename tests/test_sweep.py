@@ -7,7 +7,7 @@ Every sweep here uses the same model structure, metrics, output times, solver se
 shape, so the sweep kernel compiles once in this process; the subprocess on 4 devices, started
 first, compiles its own while the first tests run, and the one on a single device, started after
 this process's grid sweep, loads this process's from JAX's persistent cache. The mechanism
-is a small one, which compiles in a fraction of the paper's time: a 2 kg rotor in the paper's
+is small, a smaller program than the paper's case: a 2 kg rotor in the paper's
 SKF 98205, driven at 100 rad/s, falling onto the race. Over 0.01 s it takes about 210 steps; a
 bearing damping of 1e8 N s/m makes the ball contacts so stiff that max_steps=1500 runs out at
 t = 3 ms, so those members fail (max_steps_reached) while the others succeed.
