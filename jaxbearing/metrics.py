@@ -60,17 +60,13 @@ import numpy as np
 from ._checks import is_concrete
 from .solution import (
     FORCE_SCALE,
-    INT_BALL_LOAD_POWER,
-    INT_BEARING_FORCE_POWER,
-    INT_BEARING_FORCE_SQUARED,
-    INT_CONTACT_FORCE_POWER,
     INT_TIME,
-    PEAK_BALL_LOAD,
-    PEAK_BEARING_FORCE,
-    PEAK_CONTACT_FORCE,
-    PEAK_DISPLACEMENT,
     POWER,
+    RESULTS,
+    SimulationError,
     Solution,
+    integral_column,
+    peak_column,
 )
 
 
@@ -151,10 +147,29 @@ EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts
 
 
 def _inside(sol: Solution, t_min, t_max):
-    """Which intervals of ``sol.segments`` lie in ``[t_min, t_max]``, and whether both edges are
-    stops (or outside the solved span). ValueError when they are not and that is known in
-    Python."""
-    return intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+    """Which intervals of ``sol.segments`` lie in ``[t_min, t_max]``, and whether the window
+    has a value: both edges are stops (or outside the solved span) and the run reached its end
+    (`reached`). ValueError or SimulationError when not and that is known in Python."""
+    inside, ok = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+    return inside, ok & reached(sol, t_max)
+
+
+def reached(sol: Solution, t_max):
+    """Whether the run reached the end of a window that ends at ``t_max`` [s] (None: the t1
+    asked for; a later t_max counts as t1). A run that stopped short (``throw=False``) has no
+    metric there: a `SimulationError` saying when and why it stopped where that is known in
+    Python; traced, False (the metric is NaN)."""
+    end = sol.t1 if t_max is None else jnp.minimum(jnp.asarray(t_max, jnp.float64), sol.t1)
+    ok = sol.t_final >= end - EDGE_TOLERANCE
+    if is_concrete(ok) and not bool(ok):
+        why = RESULTS[sol.result] if is_concrete(sol.result._value) else "it failed"
+        raise SimulationError(
+            f"The window ends at t = {float(end):.6g} s, but the run stopped at t_final = "
+            f"{float(sol.t_final):.6g} s of t1 = {float(sol.t1):.6g} s ({why}): a metric of a "
+            "run that did not reach its window's end is no result. A solution of throw=False "
+            f"can be inspected over [t0, {float(sol.t_final):.6g}] s (pass t_max <= t_final)."
+        )
+    return ok
 
 
 def window_start(sol: Solution, t_min):
@@ -218,18 +233,22 @@ def _window_edge(name, value, what) -> jax.Array:
 
 
 def _peak(sol: Solution, column, t_min, t_max):
-    """Max of ``segments.peaks[:, column]`` over the window; NaN if empty or not on stops."""
+    """Max of ``segments.peaks[:, column]`` over the window; NaN if the window has no value.
+    ``column`` None (an element the model lacks): 0."""
     inside, ok = _inside(sol, t_min, t_max)
+    if column is None:
+        return jnp.where(ok & jnp.any(inside), 0.0, jnp.nan)
     peak = jnp.max(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
     return jnp.where(ok & jnp.any(inside), peak, jnp.nan)
 
 
 def _integral(sol: Solution, column, t_min, t_max):
     """(integral of ``segments.integrals[:, column]``, duration) over the window [.., s]; NaN
-    duration if the edges are not stops."""
+    duration if the window has no value. ``column`` None: an integral of 0."""
     inside, ok = _inside(sol, t_min, t_max)
     total = jnp.sum(jnp.where(inside[:, None], sol.segments.integrals, 0.0), axis=0)
-    return total[column], jnp.where(ok, total[INT_TIME], jnp.nan)
+    value = 0.0 * total[INT_TIME] if column is None else total[column]
+    return value, jnp.where(ok, total[INT_TIME], jnp.nan)
 
 
 def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
@@ -242,72 +261,111 @@ def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
     return FORCE_SCALE * (total / (count * duration)) ** (1.0 / POWER)
 
 
-def _require_bearing(sol: Solution):
-    if sol.bearing_force is None:
+def element_index(name: str, value, count: int, element: str):
+    """``value`` checked as an index into the model's ``count`` elements (``name`` the keyword,
+    ``element`` what they are); None means the only one."""
+    plural = f"{count} {element}{'s' if count != 1 else ''}"
+    if value is None:
+        if count > 1:
+            raise ValueError(
+                f"This model has {plural}: pass {name}= (an index from 0 to {count - 1}, model "
+                "order) to say which."
+            )
+        return 0
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 0 <= value < count:
+        allowed = f"an integer from 0 to {count - 1}" if count else "none: it has no such element"
+        raise ValueError(f"{name} must index one of the model's {plural} ({allowed}); got {value!r}.")
+    return int(value)
+
+
+def bearing_index(sol: Solution, bearing=None) -> int:
+    """The index into ``model.bearings`` that ``bearing`` names (None: the only one); a
+    ValueError for a model without bearing joint, for None on a model with several, and for an
+    index it does not have."""
+    if not sol.n_bearings:
         raise ValueError("This solution has no bearing joint.")
+    return element_index("bearing", bearing, sol.n_bearings, "bearing joint")
 
 
-def peak_ball_load(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """Largest load on any ball [N] in the window, the maximum of each solver step's
+def contact_index(sol: Solution, contact=None) -> int | None:
+    """The index into ``model.contacts`` that ``contact`` names (None: the only one, or None
+    for a model without contact); a ValueError for None on a model with several, and for an
+    index it does not have."""
+    if contact is None and not sol.n_contacts:
+        return None
+    return element_index("contact", contact, sol.n_contacts, "impact contact")
+
+
+def _column(sol: Solution, kind: str, index) -> int | None:
+    """`peak_column` of ``kind`` for element ``index`` of ``sol``'s model (None stays None)."""
+    if index is None:
+        return None
+    return peak_column(kind, index, sol.n_bearings, sol.n_contacts)
+
+
+def peak_ball_load(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
+    """Largest load on any ball [N] of a bearing joint (``bearing``: index into
+    ``model.bearings``; None: the only one) in the window, the maximum of each solver step's
     interpolant (`SegmentStats`)."""
-    _require_bearing(sol)
-    return _peak(sol, PEAK_BALL_LOAD, t_min, t_max)
+    return _peak(sol, _column(sol, "ball_load", bearing_index(sol, bearing)), t_min, t_max)
 
 
-def peak_bearing_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """Largest magnitude |F| of the bearing resultant (Eq. 28) [N] in the window, the maximum
-    of each solver step's interpolant (`SegmentStats`)."""
-    _require_bearing(sol)
-    return _peak(sol, PEAK_BEARING_FORCE, t_min, t_max)
+def peak_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
+    """Largest magnitude |F| of a bearing joint's resultant (Eq. 28) [N] in the window, the
+    maximum of each solver step's interpolant (`SegmentStats`); ``bearing`` as in
+    `peak_ball_load`."""
+    return _peak(sol, _column(sol, "bearing_force", bearing_index(sol, bearing)), t_min, t_max)
 
 
-def rms_bearing_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """Root-mean-square of |F| over the window (time-weighted) [N]: Gauss–Legendre quadrature of
-    each step's interpolant (exact for integrands of degree <= 5 over a step). Smooth."""
-    _require_bearing(sol)
-    total, duration = _integral(sol, INT_BEARING_FORCE_SQUARED, t_min, t_max)
+def rms_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
+    """Root-mean-square of a bearing joint's |F| over the window (time-weighted) [N]:
+    Gauss–Legendre quadrature of each step's interpolant (exact for integrands of degree <= 5
+    over a step). Smooth. ``bearing`` as in `peak_ball_load`."""
+    column = integral_column("force_squared", bearing_index(sol, bearing), sol.n_bearings)
+    total, duration = _integral(sol, column, t_min, t_max)
     return jnp.sqrt(total / duration)
 
 
-def peak_impact_force(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """Largest normal impact force [N] in the window, the maximum of each solver step's
-    interpolant (`SegmentStats`), so independent of the output times."""
-    return _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)
+def peak_impact_force(sol: Solution, t_min="model", t_max=None, *, contact=None) -> jax.Array:
+    """Largest normal impact force [N] of a contact (``contact``: index into
+    ``model.contacts``; None: the only one) in the window, the maximum of each solver step's
+    interpolant (`SegmentStats`), so independent of the output times; 0 for a model without
+    contact (nothing is struck)."""
+    return _peak(sol, _column(sol, "contact_force", contact_index(sol, contact)), t_min, t_max)
 
 
-def max_target_displacement(sol: Solution, t_min="model", t_max=None, coordinate=None) -> jax.Array:
+def max_target_displacement(
+    sol: Solution, t_min="model", t_max=None, coordinate=None, *, contact=None
+) -> jax.Array:
     """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, the maximum of
-    each solver step's interpolant (`SegmentStats`). Default coordinate: the impact
-    target's x (`Solution.target`; in `cases.xu2014` the target, body 3); a model without
-    impact contact has no target, and the value is 0 (nothing is struck), as
-    `peak_impact_force`'s."""
+    each solver step's interpolant (`SegmentStats`). Default coordinate: the x of the impact
+    target of ``contact`` (`Solution.targets`; None: the only contact; in `cases.xu2014` the
+    target, body 3); a model without impact contact has no target, and the value is 0 (nothing
+    is struck), as `peak_impact_force`'s."""
     if coordinate is not None:
-        n = sol.segments.peaks.shape[1] - PEAK_DISPLACEMENT
+        n = sol.q.shape[-1]
         if isinstance(coordinate, bool) or not isinstance(coordinate, numbers.Integral) or not 0 <= coordinate < n:
             raise ValueError(
                 f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
             )
-        return _peak(sol, PEAK_DISPLACEMENT + int(coordinate), t_min, t_max)
-    if sol.target is not None:
-        return _peak(sol, PEAK_DISPLACEMENT + sol.target, t_min, t_max)
-    return 0.0 * _peak(sol, PEAK_CONTACT_FORCE, t_min, t_max)  # NaN for a window without value
+        return _peak(sol, _column(sol, "displacement", int(coordinate)), t_min, t_max)
+    c = contact_index(sol, contact)
+    target = None if c is None else sol.targets[c]
+    return _peak(sol, _column(sol, "displacement", target), t_min, t_max)
 
 
-def _peak_column(sol: Solution, metric) -> int:
-    """The `SegmentStats` column of an exact peak metric."""
-    columns = {
-        peak_ball_load: PEAK_BALL_LOAD,
-        peak_bearing_force: PEAK_BEARING_FORCE,
-        peak_impact_force: PEAK_CONTACT_FORCE,
-    }
-    if metric in columns:
-        if metric is not peak_impact_force:
-            _require_bearing(sol)
-        return columns[metric]
+def _peak_column(sol: Solution, metric, bearing, contact) -> int | None:
+    """The `SegmentStats` column of an exact peak metric (None: an element the model lacks)."""
+    if metric in (peak_ball_load, peak_bearing_force):
+        kind = "ball_load" if metric is peak_ball_load else "bearing_force"
+        return _column(sol, kind, bearing_index(sol, bearing))
+    if metric is peak_impact_force:
+        return _column(sol, "contact_force", contact_index(sol, contact))
     if metric is max_target_displacement:
-        if sol.target is None:
+        c = contact_index(sol, contact)
+        if c is None:
             raise ValueError("This solution has no impact target (its model has no contact).")
-        return PEAK_DISPLACEMENT + sol.target
+        return _column(sol, "displacement", sol.targets[c])
     given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
     raise ValueError(
         "metric must be the function (not its name) of an exact peak: "
@@ -317,61 +375,82 @@ def _peak_column(sol: Solution, metric) -> int:
 
 
 def _where_peak(sol: Solution, column, t_min, t_max):
-    """(interval attaining the peak of ``column`` in the window (the earliest of equals), and
-    whether the window has a value)."""
+    """(interval attaining the peak of ``column`` in the window (the earliest of equals), the
+    peak, and whether the window has a value)."""
     inside, ok = _inside(sol, t_min, t_max)
-    i = jnp.argmax(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
-    return i, ok & jnp.any(inside)
+    peaks = jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf)
+    i = jnp.argmax(peaks)
+    return i, peaks[i], ok & jnp.any(inside)
 
 
-def peak_time(sol: Solution, metric, t_min="model", t_max=None) -> jax.Array:
+def peak_time(
+    sol: Solution, metric, t_min="model", t_max=None, *, bearing=None, contact=None
+) -> jax.Array:
     """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
-    `peak_impact_force`, or `max_target_displacement` of the target) is attained in the window:
-    the earliest recorded point that attains it (`SegmentStats.peak_times`), so independent of
-    the output times. No derivative: the point that attains a maximum jumps between steps. In a
-    sweep, pass e.g. ``functools.partial(peak_time, metric=peak_impact_force)``."""
-    column = _peak_column(sol, metric)
-    i, has_value = _where_peak(sol, column, t_min, t_max)
+    `peak_impact_force`, or `max_target_displacement` of the target; of the bearing joint or
+    contact named by ``bearing`` / ``contact`` as there) is attained in the window: the earliest
+    recorded point that attains it (`SegmentStats.peak_times`), so independent of the output
+    times; NaN where the peak is 0 (the element never acted in the window: no impact). No
+    derivative: the point that attains a maximum jumps between steps. In a sweep, pass e.g.
+    ``functools.partial(peak_time, metric=peak_impact_force)``."""
+    column = _peak_column(sol, metric, bearing, contact)
+    if column is None:  # no contact: nothing was struck, at no time
+        _inside(sol, t_min, t_max)  # the window's checks
+        return jnp.asarray(jnp.nan)
+    i, peak, has_value = _where_peak(sol, column, t_min, t_max)
     time = jax.lax.stop_gradient(sol.segments.peak_times[i, column])
-    return jnp.where(has_value, time, jnp.nan)
+    return jnp.where(has_value & (peak > 0.0), time, jnp.nan)
 
 
-def loads_at_peak(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """Every ball's load [N] at the time of `peak_ball_load` in the window (its `peak_time`),
-    (N_b,), ball 1 first: the load distribution at the worst instant (`SegmentStats.peak_loads`);
-    NaN for a window without value (traced). A vector: in a sweep, take one ball's entry."""
-    _require_bearing(sol)
-    i, has_value = _where_peak(sol, PEAK_BALL_LOAD, t_min, t_max)
-    return jnp.where(has_value, sol.segments.peak_loads[i], jnp.nan)
+def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
+    """Every ball's load [N] of a bearing joint (``bearing`` as in `peak_ball_load`) at the time
+    of its `peak_ball_load` in the window (its `peak_time`), (N_b,), ball 1 first: the load
+    distribution at the worst instant (`SegmentStats.peak_loads`); NaN for a window without
+    value (traced). A vector: in a sweep, take one ball's entry."""
+    b = bearing_index(sol, bearing)
+    i, _, has_value = _where_peak(sol, _column(sol, "ball_load", b), t_min, t_max)
+    return jnp.where(has_value, sol.segments.peak_loads[b][i], jnp.nan)
 
 
-def peak_ball(sol: Solution, t_min="model", t_max=None) -> jax.Array:
-    """The ball that carries `peak_ball_load` in the window: its column of
-    `Solution.ball_loads` (0 = ball 1), an int; -1 for a window without value (traced)."""
-    loads = loads_at_peak(sol, t_min, t_max)
+def peak_ball(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
+    """The ball that carries `peak_ball_load` in the window: its column of the bearing's
+    ``ball_loads`` (0 = ball 1), an int; -1 for a window without value (traced)."""
+    loads = loads_at_peak(sol, t_min, t_max, bearing=bearing)
     return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 
-def smooth_peak_ball_load(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of all ball loads over the window and the balls [N]: a
-    differentiable stand-in for `peak_ball_load` (below it; closer as p grows). Gauss–Legendre
-    quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
-    _require_bearing(sol)
-    n_balls = sol.ball_loads.shape[-1]
-    return _power_mean(sol, INT_BALL_LOAD_POWER, t_min, t_max, p, n_balls)
+def smooth_peak_ball_load(
+    sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
+) -> jax.Array:
+    """Power mean of order p of all ball loads of a bearing joint (``bearing`` as in
+    `peak_ball_load`) over the window and the balls [N]: a differentiable stand-in for
+    `peak_ball_load` (below it; closer as p grows). Gauss–Legendre quadrature of each step's
+    interpolant; p must be `solution.POWER` (16)."""
+    b = bearing_index(sol, bearing)
+    n_balls = sol.bearings[b].ball_loads.shape[-1]
+    column = integral_column("ball_load_power", b, sol.n_bearings)
+    return _power_mean(sol, column, t_min, t_max, p, n_balls)
 
 
-def smooth_peak_bearing_force(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of |F| over the window [N]: differentiable stand-in for the peak.
-    Gauss–Legendre quadrature of each step's interpolant; p must be `solution.POWER` (16)."""
-    _require_bearing(sol)
-    return _power_mean(sol, INT_BEARING_FORCE_POWER, t_min, t_max, p)
+def smooth_peak_bearing_force(
+    sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
+) -> jax.Array:
+    """Power mean of order p of a bearing joint's |F| over the window [N]: differentiable
+    stand-in for the peak. Gauss–Legendre quadrature of each step's interpolant; p must be
+    `solution.POWER` (16)."""
+    column = integral_column("force_power", bearing_index(sol, bearing), sol.n_bearings)
+    return _power_mean(sol, column, t_min, t_max, p)
 
 
-def smooth_peak_impact_force(sol: Solution, t_min="model", t_max=None, p=16.0) -> jax.Array:
-    """Power mean of order p of the impact force over the window [N]. Gauss–Legendre quadrature
-    of each step's interpolant; p must be `solution.POWER` (16)."""
-    return _power_mean(sol, INT_CONTACT_FORCE_POWER, t_min, t_max, p)
+def smooth_peak_impact_force(
+    sol: Solution, t_min="model", t_max=None, p=16.0, *, contact=None
+) -> jax.Array:
+    """Power mean of order p of a contact's impact force (``contact`` as in
+    `peak_impact_force`) over the window [N]. Gauss–Legendre quadrature of each step's
+    interpolant; p must be `solution.POWER` (16); 0 for a model without contact."""
+    c = contact_index(sol, contact)
+    column = None if c is None else integral_column("contact_force_power", c, sol.n_bearings)
+    return _power_mean(sol, column, t_min, t_max, p)
 
 
 STANDARD = {

@@ -10,11 +10,13 @@ final state and its outputs; `raise_on_failure`: the error a result code stands 
 from __future__ import annotations
 
 import functools
+import warnings
 
 import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from . import _checks
 from ._checks import is_concrete
@@ -22,10 +24,38 @@ from .laws import bearing as bearing_law
 
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
-# columns of SegmentStats.peaks and .integrals
-PEAK_BALL_LOAD, PEAK_BEARING_FORCE, PEAK_CONTACT_FORCE, PEAK_DISPLACEMENT = 0, 1, 2, 3
-(INT_BEARING_FORCE_SQUARED, INT_BALL_LOAD_POWER, INT_BEARING_FORCE_POWER, INT_CONTACT_FORCE_POWER,
- INT_TIME) = range(5)
+# Columns of SegmentStats.peaks (and .peak_times), for a model of B bearing joints, K impact
+# contacts and n coordinates, in model order: bearing b's largest ball load at 2 b and the
+# magnitude |F| of its resultant at 2 b + 1, contact c's normal force at 2 B + c, then |q_j -
+# q0_j| at 2 B + K + j (`peak_column`). Bearing 0's columns, where the model has a bearing:
+PEAK_BALL_LOAD, PEAK_BEARING_FORCE = 0, 1
+# Columns of SegmentStats.integrals: bearing b's |F|^2 at 3 b, its ball loads' power sum at
+# 3 b + 1 and |F|^POWER at 3 b + 2, contact c's force^POWER at 3 B + c, the duration last
+# (`integral_column`).
+INT_TIME = -1
+
+
+def peak_column(kind: str, index: int, n_bearings: int, n_contacts: int) -> int:
+    """The column of `SegmentStats.peaks` that holds ``kind`` ("ball_load", "bearing_force" of
+    bearing ``index``, "contact_force" of contact ``index``, "displacement" of coordinate
+    ``index``) for a model of ``n_bearings`` bearing joints and ``n_contacts`` contacts."""
+    base = {"ball_load": 0, "bearing_force": 1}
+    if kind in base:
+        return 2 * index + base[kind]
+    if kind == "contact_force":
+        return 2 * n_bearings + index
+    return 2 * n_bearings + n_contacts + index  # "displacement"
+
+
+def integral_column(kind: str, index: int, n_bearings: int) -> int:
+    """The column of `SegmentStats.integrals` that holds ``kind`` ("force_squared",
+    "ball_load_power", "force_power" of bearing ``index``; "contact_force_power" of contact
+    ``index``)."""
+    base = {"force_squared": 0, "ball_load_power": 1, "force_power": 2}
+    if kind in base:
+        return 3 * index + base[kind]
+    return 3 * n_bearings + index  # "contact_force_power"
+
 
 RING_POINTS_PER_BALL = 8  # points of each ring per ball spacing that `FatigueStats` follows
 # columns of FatigueStats.integrals
@@ -77,7 +107,7 @@ class Contacts(eqx.Module):
             fallen to -1 nm (`_core.SEPARATION_OFFSET`: the force vanished 1 nm / separation
             speed before); NaN where it lasted to the time reached, and in unused slots.
         peak_force: the largest normal force over the contact [N], up to its end or the time
-            reached; recorded for the model's first contact only, NaN for the others.
+            reached (every contact of the model).
         peak_time: when the solution attains it [s] (the earliest recorded point).
     """
 
@@ -113,22 +143,23 @@ class SegmentStats(eqx.Module):
     Fields (C = number of stops; one entry per interval, so the size does not grow with the steps
     or the events):
         t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
-        peaks: (C, 3 + n_coordinates), the maxima over the interval of: the largest ball load
-            of the model's first bearing [N], the magnitude |F| of its resultant (Eq. 28) [N],
-            the normal force of the first impact contact [N], then |q_c - q0_c| of each
-            coordinate [m or rad]; 0 for an element the model lacks, and in intervals the solve
-            did not reach. Columns ``PEAK_*``.
-        integrals: (C, 5), the integrals over the interval of: |F|^2 [N^2 s], the sum over balls
-            of (F_r / FORCE_SCALE)^POWER [s], (|F| / FORCE_SCALE)^POWER [s], (contact force /
-            FORCE_SCALE)^POWER [s], and 1 (the interval's solved duration) [s]. Columns
-            ``INT_*``.
+        peaks: (C, 2 B + K + n_coordinates), the maxima over the interval of: for each bearing
+            joint (B of them, model order) its largest ball load [N] and the magnitude |F| of its
+            resultant (Eq. 28) [N]; the normal force of each impact contact (K) [N]; then
+            |q_c - q0_c| of each coordinate [m or rad]; 0 in intervals the solve did not reach.
+            Columns: `peak_column`.
+        integrals: (C, 3 B + K + 1), the integrals over the interval of: for each bearing
+            |F|^2 [N^2 s], the sum over balls of (F_r / FORCE_SCALE)^POWER [s] and
+            (|F| / FORCE_SCALE)^POWER [s]; for each contact (contact force /
+            FORCE_SCALE)^POWER [s]; and 1 (the interval's solved duration) [s], last.
+            Columns: `integral_column`, ``INT_TIME``.
         valid: (C,) bool, True where the interval holds part of the solved span.
-        peak_times: (C, 3 + n_coordinates) [s], where each of ``peaks`` is attained: the
+        peak_times: (C, 2 B + K + n_coordinates) [s], where each of ``peaks`` is attained: the
             earliest recorded point (step point or vertex) that attains it; NaN in intervals
             the solve did not reach.
-        peak_loads: (C, N_b) [N], every ball's load at the time of the interval's largest ball
-            load (``peak_times[:, PEAK_BALL_LOAD]``), ball 1 first; (C, 0) without a bearing, 0
-            in intervals the solve did not reach.
+        peak_loads: one (C, N_b) array per bearing joint [N]: every ball's load at the time of
+            the interval's largest ball load of that bearing, ball 1 first; 0 in intervals the
+            solve did not reach.
     """
 
     t_start: jax.Array
@@ -137,13 +168,13 @@ class SegmentStats(eqx.Module):
     integrals: jax.Array
     valid: jax.Array
     peak_times: jax.Array
-    peak_loads: jax.Array
+    peak_loads: tuple
 
 
 class FatigueStats(eqx.Module):
     """What the bearing's fatigue life (`jaxbearing.life`) needs, integrated over the solution
     itself per interval between the solve's stops (t0, the model's ``window_start``, the
-    ``window_edges`` asked for, t1), for the model's first bearing joint.
+    ``window_edges`` asked for, t1), for one bearing joint (`BearingResult.fatigue`).
 
     Every integrand is weighted by the relative revolutions the rings turn, w = |omega_inner -
     omega_outer| / (2 pi) [rev/s], and integrated as `SegmentStats`' integrals are (3-point
@@ -169,172 +200,283 @@ class FatigueStats(eqx.Module):
     valid: jax.Array
 
 
+class BearingResult(eqx.Module):
+    """What a solve gives of one bearing joint (`Solution.bearings`, in model order).
+
+    Fields (T = number of output times; NaN at the times a failed run did not reach):
+        ball_loads: (T, N_b) [N], ball 1 first ("ball" names a rolling element of any kind).
+        force: (T, 2) [N], the resultant on its outer-race body (Eq. 28).
+        cage_angle: (T,) [rad].
+        fatigue: `FatigueStats`, what its life reads (None where not recorded:
+            ``SolveOptions(fatigue=False)``).
+    """
+
+    ball_loads: jax.Array
+    force: jax.Array
+    cage_angle: jax.Array
+    fatigue: FatigueStats | None
+
+
 class Solution(eqx.Module):
-    """Result of `simulate`: states and force outputs at the requested times.
+    """Result of `simulate`: states and force outputs at the requested times, and the records
+    of every accepted step.
 
     Fields (T = number of output times; the per-time fields are NaN at the times a run that
     failed did not reach):
         ts: (T,) [s].
         q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
             in model order, [x, y, theta] each.
-        ball_loads: (T, N_b) [N] of the model's first bearing joint, ball 1 first (None
-            without a bearing).
-        bearing_force: (T, 2) [N], resultant on its outer-race body (Eq. 28) (None without).
-        cage_angle: (T,) [rad] of that bearing (None without).
-        contact_force: (T,) [N], normal force of the first impact contact (zeros without).
-        penetration: (T,) [m], penetration of the first impact contact (zeros without).
-        approach_speed: (T, n_contacts) [m/s], approach speed in force at each output time.
+        bearings: one `BearingResult` per bearing joint of the model, in model order
+            (``model.bearings``): ball loads, resultant (Eq. 28), cage angle, fatigue records.
+        contact_forces: (T, K) [N], the normal force of each impact contact
+            (``model.contacts``, in model order).
+        penetrations: (T, K) [m], the penetration of each contact (negative when apart).
+        approach_speed: (T, K) [m/s], approach speed in force at each output time.
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         contacts: `Contacts`, the onsets.
         segments: `SegmentStats`, peaks and integrals between the stops (what the metrics read).
-        fatigue: `FatigueStats`, what the bearing's life reads (None without a bearing).
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
+        t1: the final time asked for [s]; a metric's window ends there by default, and one
+            that ends after ``t_final`` has no value (`metrics.reached`).
+        max_drift: the largest constraint violation max |Phi(q, t)| [m or rad] at the end of
+            every accepted step (0 without joints); `simulate` warns where it exceeds
+            `drift_bound` of the model.
         num_steps, num_rejected_steps: solver steps over all segments.
         num_segments: segments of ``segment_steps`` iterations the solve used (`simulate`; 1
             for `simulate_one_loop`).
         num_events: events located: contact onsets and separations, ball engagements and
             releases.
-        target: index in q of the x coordinate of the impact target, body k of the model's
-            first contact (`CircleContact`: the body its normal force pushes along +n); None
-            for a model without impact contact (static).
         window_start: the model's ``window_start`` [s], where the metrics' and the life's
             default window starts; None: at the start of the solve.
+        targets: for each contact, the index in q of the x coordinate of its body k (the body
+            its normal force pushes along +n: `CircleContact`) (static).
+
+    A model with one bearing joint or one contact reads it by the short names
+    ``ball_loads``, ``bearing_force``, ``cage_angle``, ``fatigue``, ``contact_force``,
+    ``penetration`` and ``target`` (module properties); on a model with several they raise a
+    `ValueError` naming ``sol.bearings[i]`` or ``sol.contact_forces[:, j]``.
     """
 
     ts: jax.Array
     q: jax.Array
     qd: jax.Array
     qdd: jax.Array
-    ball_loads: jax.Array | None
-    bearing_force: jax.Array | None
-    cage_angle: jax.Array | None
-    contact_force: jax.Array
-    penetration: jax.Array
+    bearings: tuple
+    contact_forces: jax.Array
+    penetrations: jax.Array
     approach_speed: jax.Array
     drift: jax.Array
     contacts: Contacts
     segments: SegmentStats
-    fatigue: FatigueStats | None
     result: RESULTS
     t_final: jax.Array
+    t1: jax.Array
+    max_drift: jax.Array
     num_steps: jax.Array
     num_rejected_steps: jax.Array
     num_segments: jax.Array
     num_events: jax.Array
     window_start: jax.Array | None = None
-    target: int | None = eqx.field(static=True, default=None)
+    targets: tuple = eqx.field(static=True, default=())
+
+    @property
+    def n_bearings(self) -> int:
+        """Bearing joints of the model (B)."""
+        return len(self.bearings)
+
+    @property
+    def n_contacts(self) -> int:
+        """Impact contacts of the model (K)."""
+        return self.contact_forces.shape[-1]
+
+    def _only_bearing(self):
+        """The model's one bearing joint's `BearingResult` (None without); a ValueError with
+        several."""
+        if len(self.bearings) > 1:
+            raise ValueError(
+                f"This model has {len(self.bearings)} bearing joints: read each as "
+                f"sol.bearings[i] (i from 0 to {len(self.bearings) - 1}, model order), e.g. "
+                "sol.bearings[1].ball_loads."
+            )
+        return self.bearings[0] if self.bearings else None
+
+    def _only_contact(self, x):
+        """Column 0 of ``x`` (T, K) for a model with one contact (zeros without); a ValueError
+        with several."""
+        if x.shape[-1] > 1:
+            raise ValueError(
+                f"This model has {x.shape[-1]} impact contacts: read each as a column of "
+                "sol.contact_forces or sol.penetrations (model order)."
+            )
+        return x[..., 0] if x.shape[-1] else jnp.zeros(x.shape[:-1], x.dtype)
+
+    @property
+    def ball_loads(self) -> jax.Array | None:
+        """(T, N_b) [N] of the model's only bearing joint (None without one)."""
+        only = self._only_bearing()
+        return None if only is None else only.ball_loads
+
+    @property
+    def bearing_force(self) -> jax.Array | None:
+        """(T, 2) [N], the only bearing's resultant on its outer-race body (Eq. 28)."""
+        only = self._only_bearing()
+        return None if only is None else only.force
+
+    @property
+    def cage_angle(self) -> jax.Array | None:
+        """(T,) [rad] of the only bearing's cage."""
+        only = self._only_bearing()
+        return None if only is None else only.cage_angle
+
+    @property
+    def fatigue(self) -> FatigueStats | None:
+        """`FatigueStats` of the only bearing (None without one, or not recorded)."""
+        only = self._only_bearing()
+        return None if only is None else only.fatigue
+
+    @property
+    def contact_force(self) -> jax.Array:
+        """(T,) [N], normal force of the model's only impact contact (zeros without)."""
+        return self._only_contact(self.contact_forces)
+
+    @property
+    def penetration(self) -> jax.Array:
+        """(T,) [m], penetration of the model's only impact contact (zeros without)."""
+        return self._only_contact(self.penetrations)
+
+    @property
+    def target(self) -> int | None:
+        """Index in q of the x coordinate of the only contact's body k (None without a
+        contact)."""
+        if len(self.targets) > 1:
+            raise ValueError(
+                f"This model has {len(self.targets)} impact contacts: their targets are "
+                "sol.targets (model order)."
+            )
+        return self.targets[0] if self.targets else None
 
 
 # What the solution holds at one state, which the solve evaluates at the output times and along
 # each step (`solve._recording`): the forces the outputs report, and the integrands and peak
 # candidates of the statistics' columns.
 
-INTEGRALS = 5  # integrands of `SegmentStats` (`_integrands`)
+
+def n_integrals(model) -> int:
+    """Columns of `SegmentStats.integrals` (`integral_column`) for ``model``."""
+    return 3 * len(model.bearings) + len(model.contacts) + 1
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):
-    """Forces that the outputs and the metrics report: ``ball_loads`` (N_b,) [N], ``cage`` [rad]
-    and ``bearing_force`` (2,) [N] of the first bearing joint, ``contact_force`` [N] and
-    ``penetration`` [m] of the first impact contact (each only where the model has one)."""
-    bearing = _bearing_forces(model, t, q, qd, engaged)
-    return bearing | _contact_forces(model, t, q, qd, approach_speeds)
-
-
-def _bearing_forces(model, t, q, qd, engaged):
-    """The first bearing joint's part of `_forces` (empty without one)."""
-    if not model.bearings:
-        return {}
-    first = model.engaged_by_bearing(engaged)[0]
-    loads, cage = model.bearings[0].ball_loads(t, q, qd, model.q0, model.qd0, first)
-    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
-
-
-def _contact_forces(model, t, q, qd, approach_speeds):
-    """The first impact contact's part of `_forces` (empty without one)."""
-    if not model.contacts:
-        return {}
+    """Forces that the outputs and the metrics report: ``bearings``, a tuple with each bearing
+    joint's ``ball_loads`` (N_b,) [N], ``cage`` [rad] and ``bearing_force`` (2,) [N]; and
+    ``contact_force`` (K,) [N] and ``penetration`` (K,) [m] of the impact contacts."""
     return {
-        "contact_force": model.contacts[0].forces(t, q, qd, approach_speeds[0])[0],
-        "penetration": model.contacts[0].gap(q, qd)[0],
+        "bearings": tuple(
+            _bearing_forces(model, b, t, q, qd, engaged) for b in range(len(model.bearings))
+        ),
+        **_contact_forces(model, t, q, qd, approach_speeds),
     }
 
 
+def _bearing_forces(model, b, t, q, qd, engaged):
+    """Bearing joint ``b``'s part of `_forces`."""
+    joint = model.bearings[b]
+    switches = model.engaged_by_bearing(engaged)[b]
+    loads, cage = joint.ball_loads(t, q, qd, model.q0, model.qd0, switches)
+    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
+
+
+def _contact_forces(model, t, q, qd, approach_speeds, contacts=None):
+    """The impact contacts' part of `_forces` (those of ``contacts``, indices; None: all)."""
+    chosen = range(len(model.contacts)) if contacts is None else contacts
+    force = [model.contacts[c].forces(t, q, qd, approach_speeds[c])[0] for c in chosen]
+    gap = [model.contacts[c].gap(q, qd)[0] for c in chosen]
+    stack = lambda x: jnp.stack(x) if x else jnp.zeros((0,), q.dtype)  # noqa: E731
+    return {"contact_force": stack(force), "penetration": stack(gap)}
+
+
 def _peaks(model, q, f):
-    """The peak candidates (3 + n,) of `SegmentStats` at one state with forces ``f``."""
-    zero = jnp.zeros((), q.dtype)
-    contact = f.get("contact_force", zero)
-    largest = jnp.max(f.get("ball_loads", zero[None]))
-    return jnp.concatenate([jnp.stack([largest, _magnitude(f), contact]), jnp.abs(q - model.q0)])
+    """The peak candidates (2 B + K + n,) of `SegmentStats` at one state with forces ``f``."""
+    bearings = [
+        jnp.stack([jnp.max(b["ball_loads"]), _magnitude(b)]) for b in f["bearings"]
+    ]
+    return jnp.concatenate([*bearings, f["contact_force"], jnp.abs(q - model.q0)])
 
 
-def _squared(f):
-    """|F|^2 [N^2] of the bearing resultant in ``f`` (0 without a bearing)."""
-    resultant = f.get("bearing_force", jnp.zeros(2))
+def _squared(b):
+    """|F|^2 [N^2] of the resultant of a bearing's forces ``b``."""
+    resultant = b["bearing_force"]
     return jnp.sum(resultant * resultant)
 
 
-def _magnitude(f):
-    """|F| [N] of the bearing resultant in ``f`` (0 without a bearing)."""
-    return jnp.sqrt(_squared(f) + 1e-30)
+def _magnitude(b):
+    """|F| [N] of the resultant of a bearing's forces ``b``."""
+    return jnp.sqrt(_squared(b) + 1e-30)
 
 
 def _integrands(t, f):
-    """The integrands (`INTEGRALS`,) of `SegmentStats` at one state with forces ``f``."""
-    zero = jnp.zeros((), t.dtype)
-    magnitude = _magnitude(f)
-    return jnp.stack(
-        [
-            _squared(f),
-            jnp.sum((f.get("ball_loads", zero[None]) / FORCE_SCALE) ** POWER),
-            (magnitude / FORCE_SCALE) ** POWER,
-            (f.get("contact_force", zero) / FORCE_SCALE) ** POWER,
-            jnp.ones_like(t),
-        ]
-    )
+    """The integrands (`n_integrals`,) of `SegmentStats` at one state with forces ``f``."""
+    bearings = [
+        jnp.stack(
+            [
+                _squared(b),
+                jnp.sum((b["ball_loads"] / FORCE_SCALE) ** POWER),
+                (_magnitude(b) / FORCE_SCALE) ** POWER,
+            ]
+        )
+        for b in f["bearings"]
+    ]
+    contacts = (f["contact_force"] / FORCE_SCALE) ** POWER
+    return jnp.concatenate([*bearings, contacts, jnp.ones_like(t)[None]])
 
 
 def _fatigue_integrands(model, q, qd, f):
-    """The integrands (5 + 2 M,) of `FatigueStats` at one state with forces ``f`` (a model
-    with a bearing)."""
-    joint = model.bearings[0]
-    w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
-    balls = f["ball_loads"] / FORCE_SCALE
-    force = f["bearing_force"] / FORCE_SCALE
-    points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
-    scalars = jnp.stack(
-        [
-            jnp.ones_like(w),
-            w,
-            w * jnp.sum(force * force) ** 1.5,
-            w * jnp.mean(balls**3),
-            w * jnp.mean(balls ** (10.0 / 3.0)),
-        ]
-    )
-    return jnp.concatenate([scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)])
+    """The integrands of `FatigueStats` at one state with forces ``f``: each bearing joint's
+    5 + 2 M in turn (`fatigue_sizes`)."""
+    per_bearing = []
+    for joint, b in zip(model.bearings, f["bearings"]):
+        w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
+        balls = b["ball_loads"] / FORCE_SCALE
+        force = b["bearing_force"] / FORCE_SCALE
+        points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
+        scalars = jnp.stack(
+            [
+                jnp.ones_like(w),
+                w,
+                w * jnp.sum(force * force) ** 1.5,
+                w * jnp.mean(balls**3),
+                w * jnp.mean(balls ** (10.0 / 3.0)),
+            ]
+        )
+        per_bearing += [scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)]
+    return jnp.concatenate(per_bearing) if per_bearing else jnp.zeros((0,), q.dtype)
 
 
-def fatigue_size(model, fatigue: bool) -> int:
-    """Length of the `FatigueStats` integrands: 5 + 2 M with a bearing, else (or when not
-    recorded) 0."""
-    if not (model.bearings and fatigue):
-        return 0
-    return 5 + 2 * RING_POINTS_PER_BALL * model.bearings[0].bearing.n_balls
+def fatigue_sizes(model, fatigue: bool) -> tuple[int, ...]:
+    """Lengths of each bearing joint's `FatigueStats` integrands, 5 + 2 M (M ring points);
+    empty where they are not recorded."""
+    if not fatigue:
+        return ()
+    return tuple(5 + 2 * RING_POINTS_PER_BALL * j.bearing.n_balls for j in model.bearings)
 
 
-_PER_TIME = (
-    "ts", "q", "qd", "qdd", "ball_loads", "bearing_force", "cage_angle", "contact_force",
-    "penetration", "approach_speed", "drift",
-)
+def _per_time(sol: Solution) -> list:
+    """The per-time arrays of ``sol`` (first axis: its output times)."""
+    bearings = [x for b in sol.bearings for x in (b.ball_loads, b.force, b.cage_angle)]
+    return [
+        sol.ts, sol.q, sol.qd, sol.qdd, *bearings, sol.contact_forces, sol.penetrations,
+        sol.approach_speed, sol.drift,
+    ]  # fmt: skip
 
 
 def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solution:
     """The `Solution` of a solve of ``model`` that ended in state ``x`` (the integrator core's
     `State`) with ``result``: the per-time fields from ``outputs`` (at the output times ``ts``:
-    ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces the model has, keyed as
-    `_forces` keys them), and from ``x`` the records: `SegmentStats` and
-    `FatigueStats` of the intervals between the ``stops`` [s] after t0, cut at the time reached
-    (peaks 0 and their times NaN in the intervals not reached), and the `Contacts`."""
+    ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces, keyed as `_forces` keys
+    them), and from ``x`` the records: `SegmentStats` and each bearing's `FatigueStats` of the
+    intervals between the ``stops`` [s] after t0, cut at the time reached (peaks 0 and their
+    times NaN in the intervals not reached), and the `Contacts`."""
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)
     t_end = jnp.minimum(stops, x.t)
     valid = t_end > t_start  # the interval holds part of the solved span
@@ -347,37 +489,43 @@ def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solu
         x.integrals,
         valid,
         reached(peaks.times, jnp.nan),
-        reached(peaks.loads, 0.0),
+        tuple(reached(loads, 0.0) for loads in peaks.loads),
     )
-    fatigue = None
-    if x.fatigue.shape[-1]:  # (n_stops, 5 + 2 M): recorded, for a model with a bearing
-        m = (x.fatigue.shape[1] - 5) // 2
-        inner, outer = x.fatigue[:, 5 : 5 + m], x.fatigue[:, 5 + m :]
-        fatigue = FatigueStats(t_start, t_end, x.fatigue[:, :5], inner, outer, valid)
-    o, zeros = outputs, jnp.zeros_like(ts)
+    sizes = fatigue_sizes(model, x.fatigue.shape[-1] > 0)
+    ends = [sum(sizes[:i]) for i in range(len(sizes) + 1)]
+    bearings = []
+    for b in range(len(model.bearings)):
+        fatigue = None
+        if sizes:
+            stats = x.fatigue[:, ends[b] : ends[b + 1]]
+            m = (sizes[b] - 5) // 2
+            inner, outer = stats[:, 5 : 5 + m], stats[:, 5 + m :]
+            fatigue = FatigueStats(t_start, t_end, stats[:, :5], inner, outer, valid)
+        f = outputs["bearings"][b]
+        bearings.append(BearingResult(f["ball_loads"], f["bearing_force"], f["cage"], fatigue))
+    o = outputs
     return Solution(
         ts=ts,
         q=o["q"],
         qd=o["qd"],
         qdd=o["qdd"],
-        ball_loads=o.get("ball_loads"),
-        bearing_force=o.get("bearing_force"),
-        cage_angle=o.get("cage"),
-        contact_force=o.get("contact_force", zeros),
-        penetration=o.get("penetration", zeros),
+        bearings=tuple(bearings),
+        contact_forces=o["contact_force"],
+        penetrations=o["penetration"],
         approach_speed=o["approach"],
         drift=o["drift"],
         contacts=_contacts(x),
         segments=segments,
-        fatigue=fatigue,
         result=result,
         t_final=x.t,
+        t1=stops[-1],
+        max_drift=x.max_drift,
         num_steps=x.steps,
         num_rejected_steps=x.rejected,
         num_segments=n_segments,
         num_events=x.events,
-        target=3 * model.contacts[0].body_k if model.contacts else None,
         window_start=model.window_start,
+        targets=tuple(3 * c.body_k for c in model.contacts),
     )
 
 
@@ -387,7 +535,7 @@ def _contacts(x) -> Contacts:
     time, speed, index = x.onsets
     kept = jnp.arange(time.shape[0]) < x.n_onsets
     end, peak, peak_time = x.spans
-    found = kept & (index == 0) & (peak > -jnp.inf)
+    found = kept & (peak > -jnp.inf)
     return Contacts(
         jnp.where(kept, time, jnp.nan),
         jnp.where(kept, speed, jnp.nan),
@@ -403,10 +551,48 @@ def _contacts(x) -> Contacts:
 def first_rows(sol: Solution, n: int) -> Solution:
     """``sol`` with its per-time fields cut to the first ``n`` output times (a solve padded its
     output times to share a compiled solve: `solve._simulate._bucketed`)."""
-    fields = [f for f in _PER_TIME if getattr(sol, f) is not None]
-    return eqx.tree_at(
-        lambda s: [getattr(s, f) for f in fields], sol, [getattr(sol, f)[:n] for f in fields]
-    )
+    return eqx.tree_at(_per_time, sol, [x[:n] for x in _per_time(sol)])
+
+
+DRIFT_FRACTION = 0.01  # of the smallest positive diametral bearing clearance: `drift_bound`
+DRIFT_SIZE_FRACTION = 1e-4  # of the mechanism's size, where no bearing has a clearance
+
+
+def drift_bound(model) -> float:
+    """The constraint drift [m] above which a run is not trusted (`warn_if_drifting`):
+    `DRIFT_FRACTION` of the smallest positive diametral clearance of the model's bearing
+    joints (the joints then move by a visible fraction of the play the bearing forces act
+    over), else `DRIFT_SIZE_FRACTION` of the mechanism's size (the largest distance between
+    two bodies' initial positions, at least 1 m where all start at one point)."""
+    clearances = [float(np.asarray(j.bearing.clearance)) for j in model.bearings]
+    positive = [c for c in clearances if c > 0.0]
+    if positive:
+        return DRIFT_FRACTION * min(positive)
+    xy = np.asarray(model.q0).reshape(-1, 3)[:, :2]
+    size = float(np.max(np.linalg.norm(xy[:, None] - xy[None], axis=-1))) if len(xy) else 0.0
+    return DRIFT_SIZE_FRACTION * (size if size > 0.0 else 1.0)
+
+
+class DriftWarning(UserWarning):
+    """A run's joints drifted further than `drift_bound`: its forces are not trusted."""
+
+
+def warn_if_drifting(sol: Solution, model) -> None:
+    """Warn (`DriftWarning`) where ``sol.max_drift`` exceeds `drift_bound` of ``model``; nothing
+    where either is traced (under your own transformations: read ``sol.max_drift``)."""
+    if not is_concrete(sol.max_drift, model.q0, *(j.bearing.clearance for j in model.bearings)):
+        return
+    drift, bound = float(sol.max_drift), drift_bound(model)
+    if drift > bound:
+        warnings.warn(
+            f"The joints drifted by up to {drift:.3g} m (max |Phi|, sol.max_drift), beyond the "
+            f"{bound:.3g} m this model allows (jaxbearing.solution.drift_bound): the solver met "
+            "its tolerance, the joints did not. Tighten the tolerances, e.g. "
+            "stepsize_controller=jaxbearing.default_controller(rtol=1e-8, atol=1e-10), and check "
+            "the metrics with jaxbearing.metrics.converged.",
+            DriftWarning,
+            stacklevel=3,
+        )
 
 
 def raise_on_failure(sol: Solution, t1, rules, root_steps: int) -> Solution:

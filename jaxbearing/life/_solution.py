@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from .._checks import is_concrete
-from ..metrics import WithModel, intervals_inside, window_start
+from ..metrics import WithModel, element_index, bearing_index, intervals_inside, reached, window_start
 from ..multibody.mechanism import Mechanism
 from ..solution import (
     FAT_BALL_CUBED,
@@ -24,6 +24,7 @@ from ..solution import (
     FAT_TIME,
     FORCE_SCALE,
     RING_POINTS_PER_BALL,
+    FatigueStats,
     Solution,
 )
 from ._formulas import (
@@ -73,25 +74,23 @@ class LPLife(eqx.Module):
     l10_hours: jax.Array
 
 
-def _joint(model: Mechanism, bearing: int):
+def _joint(model: Mechanism, bearing):
+    """The bearing joint ``bearing`` of ``model`` (None: the only one)."""
     if not isinstance(model, Mechanism):
         raise TypeError(f"model must be a jaxbearing Mechanism, got {type(model).__name__}.")
-    joints = model.bearings
-    if not 0 <= bearing < len(joints):
-        raise ValueError(
-            f"bearing must index one of the model's {len(joints)} bearing joints; got {bearing}."
-        )
-    return joints[bearing]
+    if not model.bearings:
+        raise ValueError("This model has no bearing joint.")
+    return model.bearings[element_index("bearing", bearing, len(model.bearings), "bearing joint")]
 
 
-def relative_speed(sol: Solution, model: Mechanism, bearing: int = 0) -> jax.Array:
+def relative_speed(sol: Solution, model: Mechanism, bearing=None) -> jax.Array:
     """omega_inner - omega_outer [rad/s] at the output times, (T,): the inner-race body's
     angular speed minus the outer-race body's (`cases.xu2014`: rod qd[:, 5] minus crank
     qd[:, 2])."""
     return jax.vmap(_joint(model, bearing).relative_speed)(sol.q, sol.qd)
 
 
-def _bearing_geometry(model: Mechanism, bearing: int):
+def _bearing_geometry(model: Mechanism, bearing):
     """(Z, D, d_m) from the BallBearing's raceway diameters d_i = d_m - D, d_o = d_m + D."""
     b = _joint(model, bearing).bearing
     d = 0.5 * (b.outer_race_diameter - b.inner_race_diameter)
@@ -99,23 +98,29 @@ def _bearing_geometry(model: Mechanism, bearing: int):
     return b.n_balls, d, dm
 
 
-def _check_solution(sol: Solution, bearing: int):
+def _fatigue(sol: Solution, model: Mechanism, bearing) -> FatigueStats:
+    """The `FatigueStats` of bearing joint ``bearing`` (None: the only one) of ``sol``, a
+    solution of ``model``."""
     if not isinstance(sol, Solution):
         raise TypeError(f"sol must be a jaxbearing Solution, got {type(sol).__name__}.")
-    if sol.bearing_force is None:
-        raise ValueError("This solution has no bearing joint.")
-    if sol.fatigue is None:
+    _joint(model, bearing)
+    if sol.n_bearings != len(model.bearings):
         raise ValueError(
-            "This solution carries no fatigue integrals (sol.fatigue is None): the life needs a "
-            "solution made by jaxbearing.simulate with options=SolveOptions(fatigue=True) (its "
-            "default records them too)."
+            f"sol has {sol.n_bearings} bearing joints and model {len(model.bearings)}: pass the "
+            "model that produced the solution."
         )
-    if bearing != 0:
-        raise ValueError("Solutions carry the forces of the first bearing joint only (bearing=0).")
+    stats = sol.bearings[bearing_index(sol, bearing)].fatigue
+    if stats is None:
+        raise ValueError(
+            "This solution carries no fatigue integrals (its bearings' fatigue is None): the "
+            "life needs a solution made by jaxbearing.simulate with "
+            "options=SolveOptions(fatigue=True) (its default records them too)."
+        )
+    return stats
 
 
 def iso_life(
-    sol: Solution, model: Mechanism, *, t_min="model", t_max=None, bearing: int = 0
+    sol: Solution, model: Mechanism, *, t_min="model", t_max=None, bearing=None
 ) -> RatingLife:
     """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
     (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
@@ -128,11 +133,11 @@ def iso_life(
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
     [s] ("model": the model's ``window_start``; None: unbounded), whose edges must be ends of
     the solve's stop intervals (t0, the model's ``window_start``, ``SolveOptions.window_edges``,
-    t1); bearing: index of the bearing joint (0, the one `Solution` records).
+    t1); bearing: index of the bearing joint in ``model.bearings`` (None: the only one).
     """
-    _check_solution(sol, bearing)
+    stats = _fatigue(sol, model, bearing)
     z, d, dm = _bearing_geometry(model, bearing)
-    integrals, _, _ = _window_integrals(sol, t_min, t_max)
+    integrals, _, _ = _window_integrals(sol, stats, t_min, t_max)
     revolutions = integrals[FAT_REVOLUTIONS]
     c = dynamic_load_rating(z, d, dm)
     p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_CUBED], revolutions), 1.0 / 3.0)
@@ -141,12 +146,13 @@ def iso_life(
     return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions)
 
 
-def _window_integrals(sol: Solution, t_min, t_max):
-    """`FatigueStats` integrals summed over the window: (integrals (5,), inner (M,), outer
-    (M,)); NaN when the window's edges are not ends of the stop intervals (traced). Raises
-    when, concretely, the rings do not turn relative to each other in the window."""
-    stats = sol.fatigue
+def _window_integrals(sol: Solution, stats: FatigueStats, t_min, t_max):
+    """``stats``' integrals summed over the window: (integrals (5,), inner (M,), outer (M,));
+    NaN when the window's edges are not ends of the stop intervals or the run stopped before
+    its end (`metrics.reached`) (traced). Raises when, concretely, the rings do not turn
+    relative to each other in the window."""
     inside, ok = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
+    ok = ok & reached(sol, t_max)
 
     def total(x):
         return jnp.where(ok, jnp.sum(jnp.where(inside[:, None], x, 0.0), axis=0), jnp.nan)
@@ -171,7 +177,7 @@ def ring_point_loads(
     model: Mechanism,
     ring: Literal["inner", "outer"],
     points_per_ball: int = 8,
-    bearing: int = 0,
+    bearing=None,
 ) -> jax.Array:
     """Load history of material points fixed in one ring, (T, Z * points_per_ball) [N].
 
@@ -179,7 +185,7 @@ def ring_point_loads(
     its load at time t is what the bearing law (Eqs. 9, 12; `laws.bearing.ring_point_loads`,
     same variant, clearance and damping) gives for a ball at that point's global angle
     2 pi k / M + theta_body(t), from the simulated eccentricity and its rate. At the balls'
-    own positions it equals ``sol.ball_loads``; in between it is the load the next ball to
+    own positions it equals that bearing's ``ball_loads``; in between it is the load the next ball to
     pass will carry. Balls and both raceways carry the same load (frictionless balls). A
     history at the output times, for plots; `lp_life` integrates the same loads over the
     solution itself (``sol.fatigue``).
@@ -212,7 +218,7 @@ def lp_life(
     points_per_ball: int | None = None,
     b_m=B_M,
     reduction=ISO_REDUCTION,
-    bearing: int = 0,
+    bearing=None,
 ) -> LPLife:
     """Lundberg–Palmgren life of the simulated bearing from its ball loads (Harris & Kotzalas).
 
@@ -252,11 +258,11 @@ def lp_life(
         points_per_ball: ring points per ball spacing for ``rotating=None``: the solve follows
             `solution.RING_POINTS_PER_BALL`; None or that number.
         b_m, reduction: factors of the ratings, see `ball_race_load_ratings`.
-        bearing: index of the bearing joint (0).
+        bearing: index of the bearing joint in ``model.bearings`` (None: the only one).
     """
     if rotating not in (None, "inner", "outer"):
         raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
-    _check_solution(sol, bearing)
+    stats = _fatigue(sol, model, bearing)
     if points_per_ball is not None and points_per_ball != RING_POINTS_PER_BALL:
         raise ValueError(
             f"points_per_ball: the solution follows {RING_POINTS_PER_BALL} points of each ring "
@@ -266,7 +272,7 @@ def lp_life(
     q_ci, q_co = ball_race_load_ratings(
         z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
     )
-    integrals, inner, outer = _window_integrals(sol, t_min, t_max)
+    integrals, inner, outer = _window_integrals(sol, stats, t_min, t_max)
     revolutions = integrals[FAT_REVOLUTIONS]
     if rotating is None:
         q_ei = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(inner, revolutions)), 1.0 / 3.0)

@@ -36,7 +36,7 @@ import jax
 import jax.numpy as jnp
 
 from ..laws.bearing import BALL_RELEASE
-from ..solution import INTEGRALS, PEAK_CONTACT_FORCE, RESULTS, _forces, fatigue_size
+from ..solution import RESULTS, _forces, fatigue_sizes, n_integrals
 from ._recording import Peaks, _add, _step_stats, no_peaks, point_peaks
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
@@ -211,11 +211,12 @@ class State(NamedTuple):
     root: ITPState
     root_steps: jax.Array
     peaks: Peaks  # (n_stops, ...) peaks of each stop interval so far (`SegmentStats`)
-    integrals: jax.Array  # (n_stops, INTEGRALS)
-    fatigue: jax.Array  # (n_stops, 5 + 2 M) `FatigueStats` integrals
+    integrals: jax.Array  # (n_stops, `n_integrals`)
+    fatigue: jax.Array  # (n_stops, sum of `fatigue_sizes`) `FatigueStats` integrals
     onsets: tuple  # (time, approach speed, contact index) of each onset, each (max_onsets,)
     spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact
     n_onsets: jax.Array
+    max_drift: jax.Array  # the largest max |Phi(q, t)| at the end of a recorded step so far
     current: jax.Array  # (n_contacts,) the onset slot of each contact in force, -1 for none
     events: jax.Array  # events located
     steps: jax.Array
@@ -282,11 +283,12 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         root=ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero),
         root_steps=jnp.asarray(0),
         peaks=peaks,
-        integrals=jnp.zeros(rows + (INTEGRALS,)),
-        fatigue=jnp.zeros(rows + (fatigue_size(model, s.fatigue),)),
+        integrals=jnp.zeros(rows + (n_integrals(model),)),
+        fatigue=jnp.zeros(rows + (sum(fatigue_sizes(model, s.fatigue)),)),
         onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
         spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
         n_onsets=jnp.asarray(0),
+        max_drift=_drift(model, t0, q),
         current=jnp.full(n_contacts, -1),
         events=jnp.asarray(0),
         steps=jnp.asarray(0),
@@ -463,7 +465,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         row.recorded,
         lambda: _step_stats(
             model, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
-            _args(x), s.fatigue, _running(x, rows[0]),
+            _args(x), s.fatigue, _running(model, x, rows[0]),
         ),
         lambda: (no_peaks(model), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
     )
@@ -473,7 +475,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])
     slot = onset & (jnp.arange(x.onsets[0].shape[0]) == x.n_onsets)
     onsets = tuple(jnp.where(slot, v, a) for a, v in zip(x.onsets, o.onset[:3]))
-    spans, current = _spans(x, row.recorded, stats[0], o.separated, new.t, onset, o.onset[2])
+    spans, current = _spans(model, x, row.recorded, stats[0], o.separated, new.t, onset, o.onset[2])
     reached = o.at_stop & (_stop(s, x) >= s.t1)
     stepped = ~x.locating  # a step attempt (`_attempt`), which counts against max_steps
     out_of_steps = stepped & (x.steps + 1 >= s.max_steps) & ~reached
@@ -488,6 +490,9 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         onsets=onsets,
         spans=spans,
         n_onsets=x.n_onsets + (onset & ~overflow),
+        max_drift=jnp.where(
+            row.recorded, jnp.maximum(x.max_drift, _drift(model, new.t, new.y[: model.n_coordinates])), x.max_drift
+        ),
         current=current,
         events=x.events + o.located,
         steps=x.steps + stepped,
@@ -498,28 +503,50 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     return state, row
 
 
-def _running(x: State, peaks: Peaks) -> Peaks:
+def _drift(model, t, q):
+    """max |Phi(q, t)| [m or rad], the constraint violation (0 without joints)."""
+    if not model.joints:
+        return jnp.zeros((), q.dtype)
+    return jnp.max(jnp.abs(model.constraints(q, t)))
+
+
+def _contact_columns(model) -> slice:
+    """The `Peaks` columns of the contacts' normal forces (`solution.peak_column`)."""
+    first = 2 * len(model.bearings)
+    return slice(first, first + len(model.contacts))
+
+
+def _in_slot(x: State):
+    """(K, max_onsets) bool: contact c is in contact and its current contact is onset slot s."""
+    slots = jnp.arange(x.spans[0].shape[0])
+    return (slots[None, :] == x.current[:, None]) & x.in_contact[:, None]
+
+
+def _running(model, x: State, peaks: Peaks) -> Peaks:
     """The peaks so far that decide whether a step is refined between its points: the stop
-    interval's, and for the contact force the lower of that and the current contact's so far
+    interval's, and for each contact's force the lower of that and its current contact's so far
     (-inf outside a contact), so that both peaks are the interpolant's."""
     if not x.current.shape[0]:
         return peaks
-    current = jnp.arange(x.spans[1].shape[0]) == x.current[0]
-    so_far = jnp.max(jnp.where(current & x.in_contact[0], x.spans[1], -jnp.inf))
-    contact = jnp.minimum(peaks.values[PEAK_CONTACT_FORCE], so_far)
-    return peaks._replace(values=peaks.values.at[PEAK_CONTACT_FORCE].set(contact))
+    so_far = jnp.max(jnp.where(_in_slot(x), x.spans[1][None, :], -jnp.inf), axis=1)
+    columns = _contact_columns(model)
+    contact = jnp.minimum(peaks.values[columns], so_far)
+    return peaks._replace(values=peaks.values.at[columns].set(contact))
 
 
-def _spans(x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
-    """``spans`` and ``current`` after an iteration: the first contact's peak joins its
-    contact's where a step in contact was recorded (``peaks``: the step's), the contacts that
-    ``separated`` end at ``t_event``, and an ``onset`` of contact ``index`` takes the next slot."""
+def _spans(model, x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
+    """``spans`` and ``current`` after an iteration: each contact's peak in a recorded step
+    (``peaks``: the step's) joins its current contact's, the contacts that ``separated`` end at
+    ``t_event``, and an ``onset`` of contact ``index`` takes the next slot."""
     if not x.current.shape[0]:
         return x.spans, x.current
     slots = jnp.arange(x.spans[0].shape[0])
     end, peak, peak_time = x.spans
-    value, when = peaks.values[PEAK_CONTACT_FORCE], peaks.times[PEAK_CONTACT_FORCE]
-    later = recorded & x.in_contact[0] & (slots == x.current[0]) & (value > peak)
+    columns = _contact_columns(model)
+    match = _in_slot(x)  # at most one contact per slot
+    value = jnp.max(jnp.where(match, peaks.values[columns][:, None], -jnp.inf), axis=0)
+    when = jnp.sum(jnp.where(match, peaks.times[columns][:, None], 0.0), axis=0)
+    later = recorded & jnp.any(match, axis=0) & (value > peak)
     peak, peak_time = jnp.where(later, value, peak), jnp.where(later, when, peak_time)
     ends = jnp.any(separated[:, None] & (slots[None, :] == x.current[:, None]), axis=0)
     end = jnp.where(ends, t_event, end)

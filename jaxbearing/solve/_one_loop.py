@@ -22,7 +22,7 @@ import jax.numpy as jnp
 
 from .. import _checks
 from ..multibody.mechanism import Mechanism
-from ..solution import raise_on_failure
+from ..solution import raise_on_failure, warn_if_drifting
 from ._core import ROOT_STEPS, advance
 from ._options import SolveOptions
 from ._simulate import core_start, solution, solve_arguments
@@ -60,7 +60,9 @@ def simulate_one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
     )
     rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
-    return raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
+    sol = raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
+    warn_if_drifting(sol, a.model)
+    return sol
 
 
 @eqx.filter_jit

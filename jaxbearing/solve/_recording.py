@@ -17,7 +17,6 @@ import jax
 import jax.numpy as jnp
 
 from ..solution import (
-    PEAK_BALL_LOAD,
     _bearing_forces,
     _contact_forces,
     _fatigue_integrands,
@@ -25,6 +24,7 @@ from ..solution import (
     _integrands,
     _magnitude,
     _peaks,
+    peak_column,
 )
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
@@ -41,31 +41,26 @@ def _accelerations(model, t, q, qd, approach_speeds, engaged):
 
 
 class Peaks(NamedTuple):
-    """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 3 + n)
-    (`solution._peaks`), the ``times`` (..., 3 + n) [s] that attain them, and the ball ``loads``
-    (..., N_b) [N] at the time of the largest ball load."""
+    """Peaks of a span of the solution (`SegmentStats`): ``values`` (..., 2 B + K + n)
+    (`solution._peaks`), the ``times`` (..., 2 B + K + n) [s] that attain them, and for each
+    bearing joint the ball ``loads`` (..., N_b) [N] at the time of its largest ball load."""
 
     values: jax.Array
     times: jax.Array
-    loads: jax.Array
-
-
-def _n_balls(model) -> int:
-    """Balls of the model's first bearing joint (0 without one)."""
-    return model.bearings[0].bearing.n_balls if model.bearings else 0
+    loads: tuple
 
 
 def no_peaks(model, rows=()) -> Peaks:
     """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0."""
-    shape = tuple(rows) + (3 + model.n_coordinates,)  # the columns of `solution._peaks`
-    loads = jnp.zeros(tuple(rows) + (_n_balls(model),))
+    shape = tuple(rows) + (2 * len(model.bearings) + len(model.contacts) + model.n_coordinates,)
+    loads = tuple(jnp.zeros(tuple(rows) + (j.bearing.n_balls,)) for j in model.bearings)
     return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), loads)
 
 
 def point_peaks(model, t, q, f) -> Peaks:
     """`Peaks` of the single point (t, q) with forces ``f``."""
     values = _peaks(model, q, f)
-    return Peaks(values, jnp.full_like(values, t), f.get("ball_loads", jnp.zeros(0)))
+    return Peaks(values, jnp.full_like(values, t), tuple(b["ball_loads"] for b in f["bearings"]))
 
 
 def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
@@ -91,16 +86,16 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     vertex, rise = _vertices(points.values)
     at = t_a + (t_b - t_a) * vertex
     may_rise = (rise > 0.0) & (peaks.values + 2.0 * rise > running.values)
-    balls = _n_balls(model)
+    split = 2 * len(model.bearings)
     bearing, loads = jax.lax.cond(
-        eqxi.unvmap_any(jnp.any(may_rise[:2])),
-        lambda: _bearing_vertex(model, interpolation, at[:2], engaged),
-        lambda: (jnp.full(2, -jnp.inf, at.dtype), jnp.zeros(balls, at.dtype)),
+        eqxi.unvmap_any(jnp.any(may_rise[:split])),
+        lambda: _bearing_vertex(model, interpolation, at[:split], engaged),
+        lambda: (jnp.full(split, -jnp.inf, at.dtype), no_peaks(model).loads),
     )
     others = jax.lax.cond(
-        eqxi.unvmap_any(jnp.any(may_rise[2:])),
-        lambda: _other_vertex(model, interpolation, at[2:], approach),
-        lambda: jnp.full(at.shape[0] - 2, -jnp.inf, at.dtype),
+        eqxi.unvmap_any(jnp.any(may_rise[split:])),
+        lambda: _other_vertex(model, interpolation, at[split:], approach),
+        lambda: jnp.full(at.shape[0] - split, -jnp.inf, at.dtype),
     )
     top = jnp.where(may_rise, jnp.concatenate([bearing, others]), -jnp.inf)
     peaks = _add((peaks,), (Peaks(top, at, loads),))[0]
@@ -139,28 +134,31 @@ def _vertices(values):
 
 
 def _bearing_vertex(model, interpolation, times, engaged):
-    """The largest ball load and |F| [N] (2,) of the interpolant at ``times`` (2,) [s], one
-    each, and every ball's load (N_b,) [N] at the first; zeros without a bearing."""
-    if not model.bearings:
-        return jnp.zeros(2, times.dtype), jnp.zeros(0, times.dtype)
+    """For each bearing joint b, its largest ball load at times[2 b] and |F| at times[2 b + 1]
+    [s] of the interpolant, (2 B,) [N], and every ball's load (N_b,) [N] at times[2 b]."""
     n = model.n_coordinates
     ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
-    f = jax.vmap(lambda t, y: _bearing_forces(model, t, y[:n], y[n:], engaged))(times, ys)
-    loads = f["ball_loads"][0]
-    magnitude = _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))
-    return jnp.stack([jnp.max(loads), magnitude]), loads
+    values, loads = [], []
+    for b in range(len(model.bearings)):
+        f = jax.vmap(lambda t, y: _bearing_forces(model, b, t, y[:n], y[n:], engaged))(
+            times[2 * b : 2 * b + 2], ys[2 * b : 2 * b + 2]
+        )
+        first = f["ball_loads"][0]
+        values += [jnp.max(first), _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))]
+        loads.append(first)
+    return jnp.stack(values), tuple(loads)
 
 
 def _other_vertex(model, interpolation, times, approach):
-    """The impact force [N] of the interpolant at times[0] [s] (0 without a contact), and each
-    |q_j - q0_j| at times[1 + j]: (1 + n,)."""
-    n = model.n_coordinates
-    contact = jnp.zeros(1, times.dtype)
-    if model.contacts:
-        y = interpolation.evaluate(times[0])
-        contact = _contact_forces(model, times[0], y[:n], y[n:], approach)["contact_force"][None]
-    displacements = jnp.abs(_coordinates_at(interpolation, n, times[1:]) - model.q0)
-    return jnp.concatenate([contact, displacements])
+    """The normal force [N] of each contact c at times[c] [s] of the interpolant, and each
+    |q_j - q0_j| at times[K + j]: (K + n,)."""
+    n, k = model.n_coordinates, len(model.contacts)
+    forces = [
+        _contact_forces(model, times[c], y[:n], y[n:], approach, (c,))["contact_force"]
+        for c, y in ((c, interpolation.evaluate(times[c])) for c in range(k))
+    ]
+    displacements = jnp.abs(_coordinates_at(interpolation, n, times[k:]) - model.q0)
+    return jnp.concatenate([*forces, displacements])
 
 
 def _coordinates_at(interpolation, n, times):
@@ -179,9 +177,10 @@ def _largest_of(points: Peaks) -> Peaks:
     """`Peaks` of a step from those of its points (4, ...), in time order: each value's
     maximum, and the earliest point that attains it (`_add` over the points: selects, which
     cost a one-loop run less than an argmax and a gather)."""
-    peaks = Peaks(*(x[0] for x in points))
+    point = lambda i: jax.tree_util.tree_map(lambda x: x[i], points)  # noqa: E731
+    peaks = point(0)
     for i in range(1, points.values.shape[0]):
-        peaks = _add((peaks,), (Peaks(*(x[i] for x in points)),))[0]
+        peaks = _add((peaks,), (point(i),))[0]
     return peaks
 
 
@@ -196,9 +195,13 @@ def _add(stats, more):
     keeps its time (and the largest ball load its ball loads) unless ``more``'s is larger."""
     (old, *sums), (new, *more_sums) = stats, more
     later = new.values > old.values
+    loads = tuple(
+        jnp.where(later[..., peak_column("ball_load", b, 0, 0), None], n, o)
+        for b, (o, n) in enumerate(zip(old.loads, new.loads))
+    )
     peaks = Peaks(
         jnp.maximum(old.values, new.values),  # NaN wins, as in the forces
         jnp.where(later, new.times, old.times),
-        jnp.where(later[..., PEAK_BALL_LOAD, None], new.loads, old.loads),
+        loads,
     )
     return (peaks,) + tuple(a + b for a, b in zip(sums, more_sums))

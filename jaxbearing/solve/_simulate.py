@@ -29,7 +29,9 @@ import optimistix as optx
 from .. import _checks, _stored
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
-from ..solution import RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure
+from ..solution import (
+    RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure, warn_if_drifting,
+)  # fmt: skip
 from ._progress import label_key
 from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
 from ._options import SolveOptions
@@ -144,6 +146,7 @@ def simulate(
     )
     if throw:
         sol = raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts), ROOT_STEPS)
+    warn_if_drifting(sol, model)
     return sol if ts.shape[0] == n_out else first_rows(sol, n_out)
 
 
