@@ -50,8 +50,10 @@ tolerances and compares the metric's values (docs/metrics.md).
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 from collections.abc import Callable
+from typing import final
 
 import jax
 import jax.numpy as jnp
@@ -59,6 +61,7 @@ import numpy as np
 
 from ._checks import is_concrete
 from .solution import (
+    AbstractRecord,
     FORCE_SCALE,
     INT_TIME,
     POWER,
@@ -451,6 +454,67 @@ def smooth_peak_impact_force(
     c = contact_index(sol, contact)
     column = None if c is None else integral_column("contact_force_power", c, sol.n_bearings)
     return _power_mean(sol, column, t_min, t_max, p)
+
+
+class _Own(AbstractRecord):
+    """What `Peak` and `Mean` share: declared by name before the solve
+    (``SolveOptions(records={name: metric})``), recorded from every accepted step, and read
+    from the solution by calling the metric on it."""
+
+    def __init__(self, fn: Callable, t_min: float | None = None, t_max: float | None = None):
+        if not callable(fn):
+            raise TypeError(f"fn must be a function fn(model, x) -> scalar; got {fn!r}.")
+        for name, value in (("t_min", t_min), ("t_max", t_max)):
+            if value is not None and (
+                isinstance(value, (bool, str)) or not isinstance(value, numbers.Real) or not math.isfinite(value)
+            ):
+                raise ValueError(f"{name} must be a time [s] or None; got {value!r}.")
+        if t_min is not None and t_max is not None and not t_max > t_min:
+            raise ValueError(f"t_max must exceed t_min; got the window [{t_min}, {t_max}] s.")
+        self.fn = fn
+        self.t_min = None if t_min is None else float(t_min)
+        self.t_max = None if t_max is None else float(t_max)
+
+    def __call__(self, sol: Solution) -> jax.Array:
+        """The value the solve recorded for this metric (`Solution.records`)."""
+        for name, record in sol.declared:
+            if record == self:
+                return sol.records[name]
+        raise ValueError(
+            "This metric was not recorded by the solve: declare it before, as simulate(..., "
+            "options=jaxbearing.SolveOptions(records={'name': metric})) (jaxbearing.sweep, "
+            "sensitivity and tune declare the metrics they are given)."
+        )
+
+    def _window(self):
+        return ("model" if self.t_min is None else self.t_min), self.t_max
+
+
+@final
+class Peak(_Own):
+    """The largest value over the window of ``fn(model, x)`` (x: the `solution.Instant` of each
+    recorded point), recorded like the built-in exact peaks: at every accepted step's end, its 3
+    Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of a
+    parabola through them. Window [``t_min``, ``t_max``] [s]: None, the model's
+    ``window_start`` (t0 without one) and t1."""
+
+    reduction = "peak"
+
+    def read(self, sol: Solution, column: int) -> jax.Array:
+        return _peak(sol, column, *self._window())
+
+
+@final
+class Mean(_Own):
+    """The time mean over the window of ``fn(model, x)`` (x: the `solution.Instant`), by 3-point
+    Gauss–Legendre quadrature of every accepted step's interpolant (exact for integrands of
+    degree <= 5 over a step). Window as `Peak`'s."""
+
+    reduction = "mean"
+
+    def read(self, sol: Solution, column: int) -> jax.Array:
+        total, duration = _integral(sol, column, *self._window())
+        return total / duration
 
 
 STANDARD = {

@@ -3,6 +3,11 @@
 A path is read with attribute access from the model (``model.bearing.clearance``); numeric parts
 index tuples (``"contacts.0.impact.restitution"``). `replace` returns a new model through
 `eqx.tree_at`, so values may be traced (vmap, grad) and the original model is unchanged.
+
+Each bearing joint's parameters are ``"bearings.i.bearing.<field>"`` (i: its index in
+``model.bearings``, model order) and each contact's ``"contacts.j.impact.<field>"``; on a model
+with one of them, ``"bearing.<field>"`` and ``"impact.<field>"`` name the same leaves.
+`parameter_paths` lists every path of a model.
 """
 
 from __future__ import annotations
@@ -22,14 +27,44 @@ def _step(node, part: str):
 
 
 def get(model, path: str):
-    """The value at ``path`` in ``model``."""
+    """The value at ``path`` in ``model``; a ValueError listing the model's paths where it has
+    none there."""
     node = model
     for part in path.split("."):
         try:
             node = _step(node, part)
         except (AttributeError, IndexError, TypeError) as err:
-            raise ValueError(f"Parameter path {path!r} does not exist in the model: {err}") from None
+            known = parameter_paths(model) if isinstance(model, eqx.Module) else []
+            listed = f" Its parameters: {', '.join(known)}." if known else ""
+            raise ValueError(
+                f"Parameter path {path!r} does not exist in the model ({err}).{listed}"
+            ) from None
     return node
+
+
+def _key(entry) -> str:
+    """One part of a dotted path from a `jax.tree_util` key."""
+    for attribute in ("name", "idx", "key"):
+        if hasattr(entry, attribute):
+            return str(getattr(entry, attribute))
+    return str(entry)
+
+
+def parameter_paths(model) -> list[str]:
+    """Every path of ``model``'s numeric parameters (its array leaves), in model order, with
+    the bearing joints' parameters as ``bearings.i.…`` and the contacts' as
+    ``contacts.j.…``."""
+    bearings = {id(b): i for i, b in enumerate(getattr(model, "bearings", ()))}
+    forces = getattr(model, "forces", ())
+    paths = []
+    for keys, leaf in jax.tree_util.tree_flatten_with_path(model)[0]:
+        if not eqx.is_array(leaf):
+            continue
+        parts = [_key(k) for k in keys]
+        if parts[:1] == ["forces"] and id(forces[int(parts[1])]) in bearings:
+            parts[:2] = ["bearings", str(bearings[id(forces[int(parts[1])])])]
+        paths.append(".".join(parts))
+    return paths
 
 
 def replace(model, values: Mapping[str, object]):

@@ -9,8 +9,10 @@ final state and its outputs; `raise_on_failure`: the error a result code stands 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import warnings
+from collections.abc import Callable
 
 import diffrax
 import equinox as eqx
@@ -200,6 +202,75 @@ class FatigueStats(eqx.Module):
     valid: jax.Array
 
 
+class BearingInstant(eqx.Module):
+    """One bearing joint at one instant (`Instant.bearings`): ``ball_loads`` (N_b,) [N], ball 1
+    first; ``force`` (2,) [N], the resultant on its outer-race body (Eq. 28); ``cage_angle``
+    [rad]."""
+
+    ball_loads: jax.Array
+    force: jax.Array
+    cage_angle: jax.Array
+
+
+class ContactInstant(eqx.Module):
+    """One impact contact at one instant (`Instant.contacts`): its normal ``force`` [N] and
+    ``penetration`` [m] (negative when apart)."""
+
+    force: jax.Array
+    penetration: jax.Array
+
+
+class Instant(eqx.Module):
+    """The solution at one instant, as the solve computed it (what a metric of your own reads,
+    `metrics.Peak`, `metrics.Mean`): time ``t`` [s], coordinates ``q`` and velocities ``qd``
+    (n_coordinates,), and the forces there with the solve's switches in force (each ball's
+    engagement, each contact's approach speed): ``bearings`` (a `BearingInstant` per bearing
+    joint, model order) and ``contacts`` (a `ContactInstant` per impact contact)."""
+
+    t: jax.Array
+    q: jax.Array
+    qd: jax.Array
+    bearings: tuple
+    contacts: tuple
+
+
+def instant(t, q, qd, f) -> Instant:
+    """The `Instant` at (t, q, qd) with forces ``f`` (`_forces`)."""
+    bearings = tuple(
+        BearingInstant(b["ball_loads"], b["bearing_force"], b["cage"]) for b in f["bearings"]
+    )
+    contacts = tuple(
+        ContactInstant(force, gap) for force, gap in zip(f["contact_force"], f["penetration"])
+    )
+    return Instant(t, q, qd, bearings, contacts)
+
+
+class AbstractRecord(eqx.Module):
+    """A quantity of your own that the solve records from every accepted step (`metrics.Peak`,
+    `metrics.Mean`): ``fn(model, x) -> scalar`` with ``x`` an `Instant`, over the window
+    [``t_min``, ``t_max``] [s] (None: the model's ``window_start``, or t0 without one; t1),
+    whose edges the solve stops at. ``reduction`` is "peak" (a column of
+    `SegmentStats.peaks`) or "mean" (of `SegmentStats.integrals`)."""
+
+    fn: Callable = eqx.field(static=True)
+    t_min: float | None = eqx.field(static=True)
+    t_max: float | None = eqx.field(static=True)
+    reduction: eqx.AbstractClassVar[str]
+
+    def value(self, model, x: Instant) -> jax.Array:
+        """``fn(model, x)``, a float64 scalar; a ValueError where it is not a scalar."""
+        v = jnp.asarray(self.fn(model, x), jnp.float64)
+        if v.shape != ():
+            raise ValueError(
+                f"A record's fn(model, x) must return a scalar; {self.fn!r} returned shape {v.shape}."
+            )
+        return v
+
+    def edges(self) -> tuple:
+        """The window edges [s] the solve stops at for this record."""
+        return tuple(float(t) for t in (self.t_min, self.t_max) if t is not None)
+
+
 class BearingResult(eqx.Module):
     """What a solve gives of one bearing joint (`Solution.bearings`, in model order).
 
@@ -235,6 +306,8 @@ class Solution(eqx.Module):
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         contacts: `Contacts`, the onsets.
         segments: `SegmentStats`, peaks and integrals between the stops (what the metrics read).
+        records: name -> value of each metric of your own declared for the solve
+            (``SolveOptions(records=...)``: `metrics.Peak`, `metrics.Mean`), over its window.
         result: a `RESULTS` code (successful unless a segment failed).
         t_final: time reached [s] (t1 unless the solve failed).
         t1: the final time asked for [s]; a metric's window ends there by default, and one
@@ -251,6 +324,7 @@ class Solution(eqx.Module):
             default window starts; None: at the start of the solve.
         targets: for each contact, the index in q of the x coordinate of its body k (the body
             its normal force pushes along +n: `CircleContact`) (static).
+        declared: the ((name, record), ...) the solve recorded (static).
 
     A model with one bearing joint or one contact reads it by the short names
     ``ball_loads``, ``bearing_force``, ``cage_angle``, ``fatigue``, ``contact_force``,
@@ -269,6 +343,7 @@ class Solution(eqx.Module):
     drift: jax.Array
     contacts: Contacts
     segments: SegmentStats
+    records: dict
     result: RESULTS
     t_final: jax.Array
     t1: jax.Array
@@ -279,6 +354,7 @@ class Solution(eqx.Module):
     num_events: jax.Array
     window_start: jax.Array | None = None
     targets: tuple = eqx.field(static=True, default=())
+    declared: tuple = eqx.field(static=True, default=())
 
     @property
     def n_bearings(self) -> int:
@@ -362,9 +438,24 @@ class Solution(eqx.Module):
 # candidates of the statistics' columns.
 
 
-def n_integrals(model) -> int:
-    """Columns of `SegmentStats.integrals` (`integral_column`) for ``model``."""
-    return 3 * len(model.bearings) + len(model.contacts) + 1
+def n_integrals(model, records=()) -> int:
+    """Columns of `SegmentStats.integrals` (`integral_column`) for ``model`` and ``records``."""
+    return 3 * len(model.bearings) + len(model.contacts) + len(of_kind(records, "mean")) + 1
+
+
+def of_kind(records, reduction: str) -> tuple:
+    """The (name, record) pairs of ``records`` whose ``reduction`` is ``reduction``."""
+    return tuple((name, r) for name, r in records if r.reduction == reduction)
+
+
+def record_values(model, records, reduction: str, t, q, qd, f) -> jax.Array:
+    """The values (U,) of the ``records`` of that ``reduction`` at (t, q, qd) with forces
+    ``f``."""
+    chosen = of_kind(records, reduction)
+    if not chosen:
+        return jnp.zeros((0,), q.dtype)
+    x = instant(t, q, qd, f)
+    return jnp.stack([r.value(model, x) for _, r in chosen])
 
 
 def _forces(model, t, q, qd, approach_speeds, engaged):
@@ -415,8 +506,9 @@ def _magnitude(b):
     return jnp.sqrt(_squared(b) + 1e-30)
 
 
-def _integrands(t, f):
-    """The integrands (`n_integrals`,) of `SegmentStats` at one state with forces ``f``."""
+def _integrands(t, f, means):
+    """The integrands (`n_integrals`,) of `SegmentStats` at one state with forces ``f`` and the
+    values ``means`` of the records to average."""
     bearings = [
         jnp.stack(
             [
@@ -428,7 +520,7 @@ def _integrands(t, f):
         for b in f["bearings"]
     ]
     contacts = (f["contact_force"] / FORCE_SCALE) ** POWER
-    return jnp.concatenate([*bearings, contacts, jnp.ones_like(t)[None]])
+    return jnp.concatenate([*bearings, contacts, means, jnp.ones_like(t)[None]])
 
 
 def _fatigue_integrands(model, q, qd, f):
@@ -470,13 +562,14 @@ def _per_time(sol: Solution) -> list:
     ]  # fmt: skip
 
 
-def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solution:
+def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments, records=()) -> Solution:
     """The `Solution` of a solve of ``model`` that ended in state ``x`` (the integrator core's
     `State`) with ``result``: the per-time fields from ``outputs`` (at the output times ``ts``:
     ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces, keyed as `_forces` keys
     them), and from ``x`` the records: `SegmentStats` and each bearing's `FatigueStats` of the
     intervals between the ``stops`` [s] after t0, cut at the time reached (peaks 0 and their
-    times NaN in the intervals not reached), and the `Contacts`."""
+    times NaN in the intervals not reached), the `Contacts`, and the value of each of the
+    ``records`` ((name, `AbstractRecord`), ...) over its window."""
     t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)
     t_end = jnp.minimum(stops, x.t)
     valid = t_end > t_start  # the interval holds part of the solved span
@@ -504,7 +597,7 @@ def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solu
         f = outputs["bearings"][b]
         bearings.append(BearingResult(f["ball_loads"], f["bearing_force"], f["cage"], fatigue))
     o = outputs
-    return Solution(
+    sol = Solution(
         ts=ts,
         q=o["q"],
         qd=o["qd"],
@@ -526,7 +619,18 @@ def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solu
         num_events=x.events,
         window_start=model.window_start,
         targets=tuple(3 * c.body_k for c in model.contacts),
+        declared=tuple(records),
+        records={},
     )
+    first = {
+        "peak": 2 * len(model.bearings) + len(model.contacts) + model.n_coordinates,
+        "mean": 3 * len(model.bearings) + len(model.contacts),
+    }
+    values = {}
+    for reduction, start in first.items():
+        for u, (name, record) in enumerate(of_kind(records, reduction)):
+            values[name] = record.read(sol, start + u)
+    return dataclasses.replace(sol, records=values)
 
 
 def _contacts(x) -> Contacts:

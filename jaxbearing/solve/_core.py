@@ -188,6 +188,7 @@ class Setup(NamedTuple):
     t1: jax.Array  # [s]
     max_steps: jax.Array  # int: steps (accepted and rejected) the run may take
     fatigue: bool  # record `FatigueStats` integrals
+    records: tuple  # ((name, `solution.AbstractRecord`), ...): metrics of the user's to record
 
 
 class State(NamedTuple):
@@ -250,9 +251,9 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     engaged = model.ball_deflections(t0, model.q0) > 0.0
     args = (approach, in_contact, engaged)
     q, qd = y0[:n], y0[n:]
-    start = point_peaks(model, t0, q, _forces(model, t0, q, qd, approach, engaged))
+    start = point_peaks(model, s.records, t0, q, qd, _forces(model, t0, q, qd, approach, engaged))
     rows = s.stops.shape[:1]
-    peaks = jax.tree_util.tree_map(lambda x, v: x.at[0].set(v), no_peaks(model, rows), start)
+    peaks = jax.tree_util.tree_map(lambda x, v: x.at[0].set(v), no_peaks(model, s.records, rows), start)
     error_order = s.solver.error_order(s.term)
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
@@ -283,7 +284,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         root=ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero),
         root_steps=jnp.asarray(0),
         peaks=peaks,
-        integrals=jnp.zeros(rows + (n_integrals(model),)),
+        integrals=jnp.zeros(rows + (n_integrals(model, s.records),)),
         fatigue=jnp.zeros(rows + (sum(fatigue_sizes(model, s.fatigue)),)),
         onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
         spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
@@ -464,10 +465,10 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     stats = jax.lax.cond(
         row.recorded,
         lambda: _step_stats(
-            model, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
+            model, s.records, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
             _args(x), s.fatigue, _running(model, x, rows[0]),
         ),
-        lambda: (no_peaks(model), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
+        lambda: (no_peaks(model, s.records), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
     )
     rows = _select(row.recorded, _add(rows, stats), rows)
     into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731

@@ -24,7 +24,7 @@ from .. import _checks
 from ..multibody.mechanism import Mechanism
 from ..solution import raise_on_failure, warn_if_drifting
 from ._core import ROOT_STEPS, advance
-from ._options import SolveOptions
+from ._options import SolveOptions, record_edges
 from ._simulate import core_start, solution, solve_arguments
 
 
@@ -54,10 +54,12 @@ def simulate_one_loop(
     raises (use `simulate`).
     """
     a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
-    stops = _checks.window_stops(a.options.window_edges, a.model.window_start)
+    records = a.options.records
+    stops = _checks.window_stops(a.options.window_edges + record_edges(records), a.model.window_start)
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
-        a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
+        a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, records,
+        a.max_onsets,
     )
     rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
     sol = raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
@@ -66,9 +68,9 @@ def simulate_one_loop(
 
 
 @eqx.filter_jit
-def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
+def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets):
     setup, state = core_start(
-        model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, max_onsets, "lax"
+        model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, "lax"
     )
     final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
     final = eqxi.nondifferentiable_backward(
@@ -81,5 +83,5 @@ def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue
     )
     return solution(
         model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
-        jnp.asarray(1),
+        jnp.asarray(1), records,
     )

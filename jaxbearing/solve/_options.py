@@ -2,7 +2,37 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import equinox as eqx
+
+from ..solution import AbstractRecord
+
+
+def _records(records) -> tuple:
+    """``records`` (name -> `metrics.Peak` / `metrics.Mean`) as ((name, record), ...); a
+    TypeError or ValueError naming what is wrong."""
+    if isinstance(records, tuple) and all(isinstance(r, tuple) and len(r) == 2 for r in records):
+        records = dict(records)
+    if not isinstance(records, Mapping):
+        raise TypeError(
+            "records must map names to jaxbearing.metrics.Peak or Mean objects, e.g. "
+            f"{{'speed': jb.metrics.Peak(fn)}}; got {type(records).__name__}."
+        )
+    for name, record in records.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"records: each name must be a non-empty string; got {name!r}.")
+        if not isinstance(record, AbstractRecord):
+            raise TypeError(
+                f"records[{name!r}] must be a jaxbearing.metrics.Peak or Mean (fn(model, x) -> "
+                f"scalar, x a jaxbearing.solution.Instant); got {type(record).__name__}."
+            )
+    return tuple(records.items())
+
+
+def record_edges(records) -> tuple:
+    """The window edges [s] of ``records`` ((name, record), ...), where the solve stops."""
+    return tuple(t for _, record in records for t in record.edges())
 
 
 class SolveOptions(eqx.Module):
@@ -29,6 +59,10 @@ class SolveOptions(eqx.Module):
             `default_output_block`); any value gives the same outputs.
         max_onsets: contact onsets recorded in `Solution.contacts`; a run with more fails.
             None: `default_max_onsets`.
+        records: metrics of your own to record from every accepted step, name ->
+            `jaxbearing.metrics.Peak` or `jaxbearing.metrics.Mean`; read as
+            ``sol.records[name]`` (or by calling the metric on the solution). The solve stops
+            at their windows' edges.
     """
 
     t0: float = 0.0
@@ -38,3 +72,4 @@ class SolveOptions(eqx.Module):
     segment_steps: int | None = eqx.field(default=None, static=True)
     output_block: int | None = eqx.field(default=None, static=True)
     max_onsets: int | None = eqx.field(default=None, static=True)
+    records: tuple = eqx.field(default=(), static=True, converter=_records)

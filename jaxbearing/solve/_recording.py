@@ -24,7 +24,9 @@ from ..solution import (
     _integrands,
     _magnitude,
     _peaks,
+    of_kind,
     peak_column,
+    record_values,
 )
 
 # 3-point Gauss–Legendre rule on [0, 1]: nodes and weights
@@ -50,20 +52,22 @@ class Peaks(NamedTuple):
     loads: tuple
 
 
-def no_peaks(model, rows=()) -> Peaks:
-    """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0."""
-    shape = tuple(rows) + (2 * len(model.bearings) + len(model.contacts) + model.n_coordinates,)
+def no_peaks(model, records, rows=()) -> Peaks:
+    """`Peaks` of an empty span (``rows`` of them): values -inf, times and loads 0; the
+    columns of `solution._peaks`, then one per peak record of ``records``."""
+    columns = 2 * len(model.bearings) + len(model.contacts) + model.n_coordinates
+    shape = tuple(rows) + (columns + len(of_kind(records, "peak")),)
     loads = tuple(jnp.zeros(tuple(rows) + (j.bearing.n_balls,)) for j in model.bearings)
     return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), loads)
 
 
-def point_peaks(model, t, q, f) -> Peaks:
-    """`Peaks` of the single point (t, q) with forces ``f``."""
-    values = _peaks(model, q, f)
+def point_peaks(model, records, t, q, qd, f) -> Peaks:
+    """`Peaks` of the single point (t, q, qd) with forces ``f``."""
+    values = jnp.concatenate([_peaks(model, q, f), record_values(model, records, "peak", t, q, qd, f)])
     return Peaks(values, jnp.full_like(values, t), tuple(b["ball_loads"] for b in f["bearings"]))
 
 
-def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
+def _step_stats(model, records, interpolation, t_a, t_b, args, fatigue, running):
     """Peaks and integrals over [t_a, t_b] of one step's interpolant: peaks at t_b and at the 3
     Gauss–Legendre points, and, where the step may rise above ``running`` (`Peaks` so far), at
     each column's `_vertices`; the Gauss–Legendre quadrature of the `SegmentStats` and
@@ -76,7 +80,7 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
     q, qd = ys[:, :n], ys[:, n:]
     f = jax.vmap(lambda t, q_, qd_: _forces(model, t, q_, qd_, approach, engaged))(times, q, qd)
-    points = jax.vmap(lambda t, q_, f_: point_peaks(model, t, q_, f_))(times, q, f)
+    points = jax.vmap(lambda *a: point_peaks(model, records, *a))(times, q, qd, f)
     peaks = _largest_of(points)
     # between the points: the interpolant at the vertex of a parabola through them, for the
     # columns whose parabola rises there, in a step that may rise above the span's peaks so far
@@ -90,17 +94,20 @@ def _step_stats(model, interpolation, t_a, t_b, args, fatigue, running):
     bearing, loads = jax.lax.cond(
         eqxi.unvmap_any(jnp.any(may_rise[:split])),
         lambda: _bearing_vertex(model, interpolation, at[:split], engaged),
-        lambda: (jnp.full(split, -jnp.inf, at.dtype), no_peaks(model).loads),
+        lambda: (jnp.full(split, -jnp.inf, at.dtype), no_peaks(model, ()).loads),
     )
     others = jax.lax.cond(
         eqxi.unvmap_any(jnp.any(may_rise[split:])),
-        lambda: _other_vertex(model, interpolation, at[split:], approach),
+        lambda: _other_vertex(model, records, interpolation, at[split:], args),
         lambda: jnp.full(at.shape[0] - split, -jnp.inf, at.dtype),
     )
     top = jnp.where(may_rise, jnp.concatenate([bearing, others]), -jnp.inf)
     peaks = _add((peaks,), (Peaks(top, at, loads),))[0]
     gauss = jax.tree_util.tree_map(lambda x: x[:3], f)
-    integrands = jax.vmap(_integrands)(times[:3], gauss)
+    means = jax.vmap(lambda *a: record_values(model, records, "mean", *a))(
+        times[:3], q[:3], qd[:3], gauss
+    )
+    integrands = jax.vmap(_integrands)(times[:3], gauss, means)
     h = t_b - t_a
     if not (model.bearings and fatigue):
         return peaks, h * _gauss_sum(integrands), jnp.zeros((0,), q.dtype)
@@ -149,16 +156,25 @@ def _bearing_vertex(model, interpolation, times, engaged):
     return jnp.stack(values), tuple(loads)
 
 
-def _other_vertex(model, interpolation, times, approach):
-    """The normal force [N] of each contact c at times[c] [s] of the interpolant, and each
-    |q_j - q0_j| at times[K + j]: (K + n,)."""
+def _other_vertex(model, records, interpolation, times, args):
+    """The normal force [N] of each contact c at times[c] [s] of the interpolant, each
+    |q_j - q0_j| at times[K + j], and each peak record's value at times[K + n + u]:
+    (K + n + U,)."""
+    approach, _, engaged = args
     n, k = model.n_coordinates, len(model.contacts)
     forces = [
         _contact_forces(model, times[c], y[:n], y[n:], approach, (c,))["contact_force"]
         for c, y in ((c, interpolation.evaluate(times[c])) for c in range(k))
     ]
-    displacements = jnp.abs(_coordinates_at(interpolation, n, times[k:]) - model.q0)
-    return jnp.concatenate([*forces, displacements])
+    displacements = jnp.abs(_coordinates_at(interpolation, n, times[k : k + n]) - model.q0)
+    peaks = of_kind(records, "peak")
+    values = []
+    for u in range(len(peaks)):
+        t = times[k + n + u]
+        y = interpolation.evaluate(t)
+        f = _forces(model, t, y[:n], y[n:], approach, engaged)
+        values.append(record_values(model, peaks[u : u + 1], "peak", t, y[:n], y[n:], f))
+    return jnp.concatenate([*forces, displacements, *values])
 
 
 def _coordinates_at(interpolation, n, times):

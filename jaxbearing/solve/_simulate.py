@@ -34,7 +34,7 @@ from ..solution import (
 )  # fmt: skip
 from ._progress import label_key
 from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
-from ._options import SolveOptions
+from ._options import SolveOptions, record_edges
 from ._recording import _accelerations
 from ._segments import (
     Driver,
@@ -139,8 +139,9 @@ def simulate(
         solver,
         stepsize_controller,
         jax.device_put(np.asarray(max_steps)),  # an array, like rtol and atol: another value compiles nothing
-        _checks.window_stops(options.window_edges, model.window_start),
+        _checks.window_stops(options.window_edges + record_edges(options.records), model.window_start),
         options.fatigue is not False,
+        options.records,
         sizes,
         None if progress is None else label_key(progress),
     )
@@ -258,7 +259,7 @@ def _checked_options(options) -> SolveOptions:
 
 
 def core_start(
-    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
+    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
 ):
     """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
     rule of the run (`_checks.start_rules`) is broken."""
@@ -279,6 +280,7 @@ def core_start(
         t1=t1,
         max_steps=max_steps,
         fatigue=fatigue,
+        records=records,
     )
     invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
@@ -286,10 +288,12 @@ def core_start(
 
 
 @eqx.filter_jit
-def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, sizes, progress, kind):
+def _simulate(
+    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, sizes, progress, kind
+):
     max_segments, segment_steps, block, max_onsets = sizes
     setup, state = core_start(
-        model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
+        model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
     )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
     final, used = jax.lax.scan(
@@ -300,10 +304,11 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fat
     return solution(
         model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
         final.written, final.written // block * block, jnp.sum(used),  # full blocks: evaluated
+        records,
     )
 
 
-def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
+def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments, records) -> Solution:
     """The `Solution` (`jaxbearing.solution.assemble`) of a run that ended in state ``x``
     (`_core.State`) with ``result``: its records, and the outputs at every output time, evaluated
     from the states, approach speeds and engaged balls there in batches of `OUTPUT_BATCH` times
@@ -355,4 +360,4 @@ def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
     outputs = jax.lax.fori_loop(0, -(-T // batch), body, outputs)
-    return assemble(model, x, outputs, ts, stops, t0, result, n_segments)
+    return assemble(model, x, outputs, ts, stops, t0, result, n_segments, records)
