@@ -352,9 +352,10 @@ def checked_ts(ts, t0, t1):
     return ts
 
 
-def window_stops(window_edges, window_start=None) -> jax.Array:
-    """The stops a solve adds to t1: the model's ``window_start`` (unless None) and the
-    ``window_edges`` [s]; a `ValueError` unless those are a tuple (or list) of finite numbers."""
+def window_stops(window_edges, window_start=None, more=()) -> jax.Array:
+    """The stops a solve adds to t1: the model's ``window_start`` (unless None), the
+    ``window_edges`` [s] and ``more`` (the records' window edges); a `ValueError` unless
+    ``window_edges`` is a tuple (or list) of finite numbers."""
     wrong = ValueError(
         f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
     )
@@ -362,7 +363,7 @@ def window_stops(window_edges, window_start=None) -> jax.Array:
         raise wrong
     start = () if window_start is None else (window_start,)
     try:
-        stops = to_float64(start + tuple(window_edges))
+        stops = to_float64(start + tuple(window_edges) + tuple(more))
     except (TypeError, ValueError):
         raise wrong from None
     if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):

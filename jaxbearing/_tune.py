@@ -45,6 +45,7 @@ import optax
 from . import _checks, paths as _paths
 from .solution import RESULTS, SimulationError
 from .solve import default_controller, simulate
+from .solve._options import declaring
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
@@ -89,7 +90,8 @@ def sensitivity(
 
     Args:
         model: the model at the design point.
-        metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`).
+        metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`),
+            or a metric of your own (`metrics.Peak`, `metrics.Mean`), which it declares.
         names: parameter paths, e.g. ``["bearing.clearance", "impact.restitution"]``.
         t1, ts, **simulate_kwargs: passed to `simulate` (not ``throw``: a failure raises
             here, after the compiled call). Without a ``stepsize_controller`` (or with None) it
@@ -114,6 +116,8 @@ def sensitivity(
     if simulate_kwargs.get("stepsize_controller") is None:
         simulate_kwargs = {**simulate_kwargs, "stepsize_controller": derivative_controller()}
     names = tuple(names) if not isinstance(names, str) else names
+    options = declaring(simulate_kwargs.get("options"), (("metric", metric),))
+    simulate_kwargs = {**simulate_kwargs, "options": options}
     x = _values(model, names, "to be differentiated")
     value, grad, failed = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
     finite = np.all(np.isfinite(np.asarray(value))) and np.all(np.isfinite(np.asarray(grad)))

@@ -517,6 +517,13 @@ class Mean(_Own):
         return total / duration
 
 
+def max_drift(sol: Solution) -> jax.Array:
+    """The largest constraint violation max |Phi(q, t)| [m or rad] at the end of every accepted
+    step of the whole run (`Solution.max_drift`; `solution.drift_bound` says how much is too
+    much). A sweep records it for every member."""
+    return sol.max_drift
+
+
 STANDARD = {
     "peak_ball_load": peak_ball_load,
     "peak_bearing_force": peak_bearing_force,
@@ -564,6 +571,7 @@ def converged(
     (or a `WithModel`); ``ts`` and ``simulate_kwargs`` go to `simulate`, which runs once per
     tolerance (one compilation for all)."""
     from .solve import default_controller, simulate  # the metrics alone never import the solver
+    from .solve._options import declaring
 
     rtols = tuple(float(r) for r in rtols)
     if len(rtols) < 2:
@@ -572,10 +580,11 @@ def converged(
         raise ValueError(f"tolerance must be a relative spread > 0; got {tolerance!r}.")
     if "stepsize_controller" in simulate_kwargs:
         raise TypeError("converged sets the step-size controller itself, one for each of rtols.")
+    options = declaring(simulate_kwargs.pop("options", None), (("metric", metric),))
     values = []
     for rtol in rtols:
         controller = default_controller(rtol=rtol, atol=rtol / 100)
-        sol = simulate(model, t1, ts, stepsize_controller=controller, **simulate_kwargs)
+        sol = simulate(model, t1, ts, stepsize_controller=controller, options=options, **simulate_kwargs)
         values.append(float(metric(sol, model) if isinstance(metric, WithModel) else metric(sol)))
     v = np.asarray(values)
     scale = np.abs(v).max()

@@ -22,20 +22,23 @@ from ..multibody import Mechanism
 from ..solve import default_controller, default_max_segments, default_solver
 from ..solve import simulate, simulate_one_loop
 from .._checks import checked_controller, checked_span, checked_ts, window_stops
+from ..solve._options import declaring
 from ..solve._simulate import SEGMENT_STEPS, _checked_options
+from ..solution import AbstractRecord
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
 SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
 READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
-RESERVED = ("status", "failed", "point")
+RESERVED = ("status", "failed", "point", "max_drift")
 NOT_FORWARDED = ("throw", "progress", "adjoint")  # simulate arguments that sweep sets itself
 SOLVES = {"segments": simulate, "one_loop": simulate_one_loop}  # what a member's solve calls
 # jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
 # whatever the output times: recognised as sample-free without the attribute
 _SEGMENT_METRICS = frozenset(
-    {*_metrics.STANDARD.values(), *_metrics.SMOOTH.values(), _metrics.peak_time, _metrics.peak_ball}
+    {*_metrics.STANDARD.values(), *_metrics.SMOOTH.values(), _metrics.peak_time, _metrics.peak_ball,
+     _metrics.max_drift}
 )
 
 
@@ -69,7 +72,7 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     t0, t1 = (float(t) for t in checked_span(options.t0, t1))
     window_stops(options.window_edges, model.window_start)
     fixed_start = None if "window_start" in names else model.window_start  # a stop, unless swept
-    options = with_metric_edges(options, items, t0, t1, fixed_start)
+    options = with_metric_edges(declaring(options, items), items, t0, t1, fixed_start)
     if options.fatigue is None:
         options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
     if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
@@ -191,7 +194,7 @@ def metric_items(metrics, names):
                 f"Metric name {name!r} collides with a parameter or a reserved name {RESERVED}."
             )
         items.append((name, fn))
-    return tuple(items)
+    return (*items, ("max_drift", _metrics.max_drift))  # every member's, whatever was asked
 
 
 def needs_samples(fn) -> bool:
@@ -200,6 +203,8 @@ def needs_samples(fn) -> bool:
     of `metrics.STANDARD` or `metrics.SMOOTH`, `metrics.peak_time` or `metrics.peak_ball`, or
     carries the attribute ``sample_free = True`` (`life.metric`'s does; mark your own metrics of
     ``sol.segments`` or ``sol.fatigue``); every other metric does."""
+    if isinstance(fn, AbstractRecord):  # recorded by the solve (`metrics.Peak`, `metrics.Mean`)
+        return False
     inner = _unwrapped(fn)
     return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
 

@@ -25,13 +25,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _files, metrics as _metrics, paths, provenance
+from ..solution import AbstractRecord
 from .arguments import resolved_settings
 from .dataset import flag_not_finite
 
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
 LOCK_FILE = ".sweep.lock"  # flock'ed by the process that writes the folder; holds its pid and host
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3  # 3: the max_drift variable, metrics of your own (metrics.Peak, Mean)
 SWEPT = "swept"  # the value of a swept parameter in the manifest's model_parameters
 NOT_RUN = -99  # status placeholder of a point not computed yet, never returned
 _NOT_COMPARED = ("versions", "chunk_points")
@@ -433,6 +434,8 @@ def _jsonable(value):
 
 
 def _metric_label(fn):
+    if isinstance(fn, AbstractRecord):
+        return f"{type(fn).__name__}({_metric_label(fn.fn)}, t_min={fn.t_min}, t_max={fn.t_max})"
     if isinstance(fn, _metrics.WithModel):
         return f"WithModel({_metric_label(fn.fn)})"
     inner = getattr(fn, "func", fn)  # functools.partial

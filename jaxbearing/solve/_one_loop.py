@@ -55,7 +55,7 @@ def simulate_one_loop(
     """
     a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
     records = a.options.records
-    stops = _checks.window_stops(a.options.window_edges + record_edges(records), a.model.window_start)
+    stops = _checks.window_stops(a.options.window_edges, a.model.window_start, record_edges(records))
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, records,

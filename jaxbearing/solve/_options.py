@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 
 import equinox as eqx
@@ -73,3 +74,13 @@ class SolveOptions(eqx.Module):
     output_block: int | None = eqx.field(default=None, static=True)
     max_onsets: int | None = eqx.field(default=None, static=True)
     records: tuple = eqx.field(default=(), static=True, converter=_records)
+
+
+def declaring(options, metrics) -> SolveOptions:
+    """``options`` (None: the defaults) with the metrics of your own among ``metrics`` ((name,
+    metric), ...: `metrics.Peak`, `metrics.Mean`) added to its ``records``."""
+    options = SolveOptions() if options is None else options
+    own = tuple((name, m) for name, m in metrics if isinstance(m, AbstractRecord))
+    if not own:
+        return options
+    return dataclasses.replace(options, records=options.records + own)

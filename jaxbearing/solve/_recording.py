@@ -144,6 +144,8 @@ def _bearing_vertex(model, interpolation, times, engaged):
     """For each bearing joint b, its largest ball load at times[2 b] and |F| at times[2 b + 1]
     [s] of the interpolant, (2 B,) [N], and every ball's load (N_b,) [N] at times[2 b]."""
     n = model.n_coordinates
+    if not model.bearings:
+        return jnp.zeros((0,), times.dtype), ()
     ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
     values, loads = [], []
     for b in range(len(model.bearings)):

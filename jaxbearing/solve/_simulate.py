@@ -139,7 +139,7 @@ def simulate(
         solver,
         stepsize_controller,
         jax.device_put(np.asarray(max_steps)),  # an array, like rtol and atol: another value compiles nothing
-        _checks.window_stops(options.window_edges + record_edges(options.records), model.window_start),
+        _checks.window_stops(options.window_edges, model.window_start, record_edges(options.records)),
         options.fatigue is not False,
         options.records,
         sizes,
