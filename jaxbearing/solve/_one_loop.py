@@ -47,8 +47,8 @@ def simulate_one_loop(
         model: a `Mechanism`; starts from ``model.q0, qd0``.
         t1: final time [s], > t0.
         solver, stepsize_controller, max_steps, throw: as in `simulate`.
-        options: `SolveOptions`; its ``t0``, ``window_edges``, ``fatigue`` and ``max_onsets``
-            apply (the one loop has no segments).
+        options: `SolveOptions`; its ``t0``, ``dt0``, ``window_edges``, ``fatigue`` and
+            ``max_onsets`` apply (the one loop has no segments).
 
     Forward-mode derivatives (`jax.jvp`, `jax.jacfwd`) agree with `simulate`'s; reverse mode
     raises (use `simulate`).
@@ -57,16 +57,17 @@ def simulate_one_loop(
     stops = _checks.window_stops(a.options.window_edges, a.model.window_start)
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
-        a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
+        a.model, a.t0, a.t1, a.dt0, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue,
+        a.max_onsets,
     )
     rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
     return raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
 
 
 @eqx.filter_jit
-def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
+def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
     setup, state = core_start(
-        model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, max_onsets, "lax"
+        model, t0, t1, dt0, None, solver, controller, max_steps, extra_stops, fatigue, max_onsets, "lax"
     )
     final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
     final = eqxi.nondifferentiable_backward(
