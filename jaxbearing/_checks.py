@@ -313,10 +313,45 @@ def checked_controller(controller):
             "stepsize_controller must be a diffrax step-size controller (e.g. "
             f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
         )
+    if isinstance(controller, diffrax.StepTo):
+        raise ValueError(
+            "stepsize_controller=diffrax.StepTo is not supported: its grid of step ends cannot "
+            "survive the restarts of the solve at its events (contact onsets and separations, ball "
+            "engagements). simulate supports diffrax.PIDController (e.g. "
+            "jaxbearing.default_controller(rtol, atol)) and diffrax.ConstantStepSize() with its "
+            "step in jaxbearing.SolveOptions(dt0=...); outputs at chosen times come from ts."
+        )
     if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
         tolerances = checked_tolerances(controller.rtol, controller.atol)
         controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
     return controller
+
+
+def checked_dt0(dt0, controller, t0, t1):
+    """The first step [s] (``SolveOptions.dt0``) as a float64 array, or None; a `ValueError` now
+    where it is None under a `diffrax.ConstantStepSize`, not a number, or concrete and not
+    finite, not positive or not below t1 - t0 (traced: an error at run time)."""
+    if dt0 is None:
+        if isinstance(controller, diffrax.ConstantStepSize):
+            raise ValueError(
+                "stepsize_controller=diffrax.ConstantStepSize() needs its step: set it in "
+                "jaxbearing.SolveOptions(dt0=...) [s], e.g. simulate(..., "
+                "options=jaxbearing.SolveOptions(dt0=1e-6))."
+            )
+        return None
+    if isinstance(dt0, (str, bytes, bool)) or np.ndim(dt0) != 0:
+        raise ValueError(f"dt0 must be one number, a step [s]; got {dt0!r}.")
+    dt0 = to_float64(dt0)
+    if not is_concrete(dt0, t0, t1):
+        wrong = ~(jnp.isfinite(dt0) & (dt0 > 0) & (dt0 < t1 - t0))
+        return eqx.error_if(dt0, wrong, "dt0 must be finite, > 0 and below t1 - t0 [s]")
+    span = float(t1) - float(t0)
+    if not (np.isfinite(dt0) and 0 < float(dt0) < span):
+        raise ValueError(
+            f"dt0 must be a finite step [s] above 0 and below t1 - t0 = {span:.6g} s; got "
+            f"dt0 = {float(dt0)!r}."
+        )
+    return dt0
 
 
 def checked_ts(ts, t0, t1):

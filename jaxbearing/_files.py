@@ -39,6 +39,14 @@ def write_text(path, text: str) -> None:
     write_bytes(path, text.encode())
 
 
+def new_folder(parent, prefix: str) -> Path:
+    """A new, empty folder in ``parent`` whose name starts with ``prefix``, never one that
+    exists (`tempfile.mkdtemp`), with a folder's usual mode instead of mkdtemp's private one."""
+    path = Path(tempfile.mkdtemp(prefix=prefix, dir=parent))
+    path.chmod(0o777 & ~_umask())
+    return path
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)

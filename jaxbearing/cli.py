@@ -13,10 +13,21 @@ and writes into ``--out`` (default ``results/xu2014``):
 - ``fig12_slider_target.png`` ... ``fig15_ball_loads.png``: the paper's Figs. 12–15 over
   `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid.
 
-Each case's CSV (and summary.json so far) is written as soon as that case is done, each file
-atomically, so an interrupted run keeps what it had computed. The figures are drawn once, when
-both cases are done, or, when the run stops early (a failed solve, Ctrl-C or SIGTERM), with the
-cases it finished.
+``--out`` is checked before anything is solved: a file, a folder that cannot be created or
+written, or a folder that holds other files than a result of this command stops it with one
+line on stderr (exit status 2). A run writes into a staging folder beside it,
+``<out>.partial-<pid>-<random>``, marked by a file ``INCOMPLETE`` that says what it holds:
+each case's CSV (and summary.json so far) as soon as that case is done, each file atomically,
+the figures when both are. Only a complete run is moved into place (an earlier result in
+``--out`` is renamed away, the new one renamed in, the old one deleted), so ``--out`` never
+holds files of two runs. A run that stops early leaves ``--out`` as it was and says so in one
+line on stderr; the staging folder keeps the cases it finished (it is deleted where there are
+none):
+
+- a failed solve: exit status 1, the figures of the cases finished drawn;
+- Ctrl-C (SIGINT) or SIGTERM: exit status 130 or 143, at once, whatever is being computed, drawn
+  or written (`_StopOnSignals`).
+
 The console shows what each case is doing and how long it took (stderr), the summaries and
 Table 5; a warning says when --t1 stops before the slider first strikes the target (both cases
 are then the same).
@@ -40,8 +51,12 @@ The physics and the numbers live in `jaxbearing.report`; this module only orches
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import os
+import shutil
 import signal
+import socket
 import sys
 import threading
 import time
@@ -128,7 +143,13 @@ def _count(low: int):
 
 
 def run_xu2014(args) -> int:
-    """The ``xu2014`` command: check the settings, then run, report and write each case."""
+    """The ``xu2014`` command: check the settings, then run, report and write each case;
+    SIGINT and SIGTERM stop it at once from the start (`_StopOnSignals`)."""
+    with _StopOnSignals() as stopper:
+        return _xu2014(args, stopper)
+
+
+def _xu2014(args, stopper) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
@@ -144,7 +165,13 @@ def run_xu2014(args) -> int:
         return 2
     ts, stride = _output_times(args)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    problem = _out_problem(out)
+    staging = None if problem else _Staging(out)
+    problem = problem or staging.create()
+    if problem:
+        print(f"jaxbearing xu2014: --out {out}: {problem}", file=sys.stderr)
+        return 2
+    stopper.staging = staging
     contact_on = float(models[True].contacts[0].active_from)
     if args.t1 <= contact_on:
         _warn(f"--t1 {args.t1:g} s does not pass the time the slider-target contact switches on "
@@ -154,36 +181,196 @@ def run_xu2014(args) -> int:
     summary = _summary(args, ts, stride, source, overrides, models)
     written: list[Path] = []
     done: dict = {}
-    stop = _sigterm_as_interrupt()
     try:
         for key, label, impact in CASES:
             result = _run_case(args, models[impact], ts, label)
-            if result is None:
+            if result is None:  # the solve failed (its message printed)
+                if done and not args.no_figures:
+                    _plot(staging.path, done)
+                print(f"jaxbearing xu2014: {staging.stop(f'the solve of the case {label} failed')}",
+                      file=sys.stderr)  # fmt: skip
                 return 1
             sol, s = result
             if impact and args.t1 > contact_on and s["contact_count"] == 0:
-                _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and without "
-                      "impact give the same results; the first contact comes near "
+                _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and "
+                      "without impact give the same results; the first contact comes near "
                       f"t = {FIRST_CONTACT} s (paper's parameters).")  # fmt: skip
-            written += _write_case(out, key, label, impact, sol, s, summary, stride, done)
-    except KeyboardInterrupt:
-        print(f"jaxbearing xu2014: stopped; the files of the cases done are in {out}", file=sys.stderr)
+            written += _write_case(staging.path, key, label, impact, sol, s, summary, stride, done)
+            staging.finished(label)
+        if not args.no_figures:
+            written += _plot(staging.path, done)
+        staging.commit()
+    except KeyboardInterrupt:  # raised, not signalled: `_StopOnSignals` handles SIGINT
+        print(f"jaxbearing xu2014: {staging.stop('stopped (KeyboardInterrupt)')}", file=sys.stderr)
         return 130
-    finally:  # also when a solve fails or the run is stopped: the figures of the cases done
-        stop()
-        if done and not args.no_figures:
-            written += _plot(out, done)
-    _print_end(summary, out, written)
+    _print_end(summary, out, [out / path.name for path in written])
     return 0
 
 
-def _sigterm_as_interrupt():
-    """Make SIGTERM raise KeyboardInterrupt, as Ctrl-C does, so that a stopped run still draws
-    its figures (only in the main thread, where Python handles signals); returns the undo."""
-    if threading.current_thread() is not threading.main_thread():
-        return lambda: None
-    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
-    return lambda: signal.signal(signal.SIGTERM, previous)
+INCOMPLETE = "INCOMPLETE"  # the marker file of a staging folder
+
+
+def _result_files() -> set[str]:
+    """What a complete run writes into --out."""
+    from .report._figures import FIGURE_FILES
+
+    return {*(f"{key}.csv" for key, _, _ in CASES), "summary.json", *FIGURE_FILES}
+
+
+def _out_problem(out: Path) -> str | None:
+    """Why ``--out`` cannot take the run's result, or None: a file; a folder that is read-only
+    or holds other files than a result of this command (`_result_files`; replacing it would
+    delete them)."""
+    if out.exists() and not out.is_dir():
+        return "is a file, not a folder: name a folder (it is created if missing)"
+    if not out.exists():
+        return None
+    if not os.access(out, os.W_OK | os.X_OK):
+        return "is a read-only folder: name a folder this process may write"
+    ours = _result_files()
+    foreign = sorted(p.name for p in out.iterdir() if p.name not in ours and not _is_temporary(p.name))
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (", ..." if len(foreign) > 3 else "")
+        return (f"holds files that are not a result of this command ({shown}), which replacing "
+                "it by the new result would delete: name another folder, or empty it")  # fmt: skip
+    return None
+
+
+def _is_temporary(name: str) -> bool:
+    """A file being written, or left by a writer that was killed (`_files.atomic_path`)."""
+    return name.startswith(".") and name.endswith(".tmp")
+
+
+class _Staging:
+    """The folder a run writes into, ``<out>.partial-<pid>-<random>`` beside ``--out``, and its
+    marker file (`INCOMPLETE`), which says what it holds while the run is not complete. ``commit``
+    moves a complete run into place; ``stop`` says where an incomplete one is."""
+
+    def __init__(self, out: Path):
+        self.out = out
+        self.path: Path | None = None  # made by `create`
+        self.cases: list[str] = []  # the labels of the cases finished
+        self.lock = threading.Lock()  # held while the folder is moved or its marker rewritten
+        self.committed = False
+        self.started = time.strftime("%Y-%m-%d %H:%M:%S")
+
+    def create(self) -> str | None:
+        """Create the folder (and --out's parents) with its marker; why not, or None."""
+        try:
+            self.out.parent.mkdir(parents=True, exist_ok=True)
+            self.path = self._new_folder("partial")
+            self._mark("The run is going on (or was killed).")
+        except OSError as err:
+            return f"cannot write beside it, in {self.out.parent.resolve()} ({err.strerror})"
+        return None
+
+    def _new_folder(self, kind: str) -> Path:
+        """A new folder ``<out>.<kind>-<pid>-<random>`` beside --out (`_files.new_folder`)."""
+        from . import _files
+
+        return _files.new_folder(self.out.parent, f"{self.out.name}.{kind}-{os.getpid()}-")
+
+    def finished(self, label: str) -> None:
+        with self.lock:
+            self.cases.append(label)
+            self._mark("The run is going on (or was killed).")
+
+    def _mark(self, status: str) -> None:
+        from . import _files
+
+        done = ", ".join(self.cases) or "no case"
+        _files.write_text(self.path / INCOMPLETE, (
+            f"This folder holds an incomplete run of `jaxbearing xu2014` (process {os.getpid()}, "
+            f"started {self.started}), meant for {self.out}.\n"
+            f"{status}\nFinished: {done} (their CSV and summary.json); a run moves its folder to "
+            f"{self.out} only when it is complete, and removes this file then.\n"
+        ))  # fmt: skip
+
+    def commit(self) -> None:
+        """Move the complete run into place: an earlier --out renamed away, this one renamed
+        in, the earlier one deleted."""
+        with self.lock:
+            (self.path / INCOMPLETE).unlink()
+            replaced = self.out.exists()
+            if replaced:
+                old = self._new_folder("old")
+                os.rename(self.out, old)  # onto the empty folder
+            os.rename(self.path, self.out)
+            self.committed = True
+        if replaced:
+            shutil.rmtree(old)
+
+    def stop(self, why: str) -> str:
+        """Leave the incomplete run where it is, its marker saying ``why`` it stopped (the
+        folder deleted where it holds no case); the one line that says so."""
+        with self.lock:
+            if self.committed:
+                return f"{why}, after the run was complete: the files are in {self.out}"
+            for tmp in self.path.iterdir():
+                if _is_temporary(tmp.name):
+                    tmp.unlink(missing_ok=True)
+            kept = "is as it was" if self.out.exists() else "was not created"
+            if not self.cases:
+                shutil.rmtree(self.path, ignore_errors=True)
+                return f"{why} before any case was finished; nothing was written ({self.out} {kept})"
+            self._mark(f"Stopped: {why}.")
+            return (f"{why}; the cases finished ({', '.join(self.cases)}) are in {self.path}, marked "
+                    f"{INCOMPLETE}; {self.out} {kept}")  # fmt: skip
+
+
+class _StopOnSignals:
+    """In its block, SIGINT (Ctrl-C) and SIGTERM stop the process at once with the staging
+    folder's line (`_Staging.stop`) and the exit status 128 + the signal's number (130, 143),
+    whatever the main thread is doing. Python runs signal handlers in the main thread between
+    bytecodes, so an exception raised there waits for a compile of tens of seconds in XLA and
+    can be swallowed where it lands (a garbage-collection callback); here the handlers do
+    nothing and the signal's number, which CPython writes to its wakeup descriptor as the
+    signal arrives (`signal.set_wakeup_fd`), wakes a thread that stops the process
+    (`os._exit`). Nothing is installed outside the main thread, where Python takes no
+    signals."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.staging: _Staging | None = None  # set once the run has one
+        self.installed = threading.current_thread() is threading.main_thread()
+
+    def __enter__(self):
+        if not self.installed:
+            return self
+        self.reader, self.writer = socket.socketpair()
+        self.writer.setblocking(False)
+        self.previous = [signal.signal(n, lambda *_: None) for n in self.SIGNALS]
+        self.previous_fd = signal.set_wakeup_fd(self.writer.fileno(), warn_on_full_buffer=False)
+        threading.Thread(target=self._watch, name="jaxbearing-stop", daemon=True).start()
+        return self
+
+    def __exit__(self, *exc):
+        if not self.installed:
+            return
+        for number, handler in zip(self.SIGNALS, self.previous):  # first: no signal is lost
+            signal.signal(number, handler)
+        signal.set_wakeup_fd(self.previous_fd)
+        self.writer.close()  # ends the thread's wait
+
+    def _watch(self):
+        with self.reader:
+            while data := self.reader.recv(1):
+                if data[0] in self.SIGNALS:
+                    self._stop(data[0])
+
+    def _stop(self, number: int):
+        why = f"stopped by {signal.Signals(number).name}"
+        line = f"{why}; nothing was written"
+        try:
+            if self.staging is not None:
+                line = self.staging.stop(why)
+        except Exception as err:  # the process stops all the same
+            line = f"{why} ({type(err).__name__}: {err}); the run's files are in {self.staging.path}"
+        finally:
+            with contextlib.suppress(OSError):
+                os.write(2, f"jaxbearing xu2014: {line}\n".encode())
+            os._exit(128 + number)
 
 
 def _plot(out, done) -> list[Path]:

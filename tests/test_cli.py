@@ -1,13 +1,17 @@
 """The ``jaxbearing xu2014`` command (jaxbearing.cli) and its helpers (jaxbearing.report)."""
 
+import contextlib
 import csv
 import inspect
 import json
 import math
 import os
 import re
+import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -299,28 +303,128 @@ def test_cli_writes_files(quick_run):
 FIGURES = ("fig12_slider_target.png", "fig13_impact_force.png", "fig14_bearing_force.png", "fig15_ball_loads.png")
 
 
-@pytest.mark.parametrize("stop", ["a failed solve", "Ctrl-C"])
-def test_a_run_stopped_in_its_second_case_keeps_the_first_and_draws_its_figures(tmp_path, monkeypatch, capsys, stop):
-    """The figures are drawn once, when both cases are done; a run that stops in its second case
-    (its solve fails: status 1; Ctrl-C or SIGTERM: status 130) still writes the first case's CSV,
-    summary.json and the figures of that case. The solves are stand-ins (`fake_solution`)."""
+def fake_cases(monkeypatch, stop_at=None, stop="Ctrl-C"):
+    """Stand-ins for the solves (`fake_solution`); the case ``stop_at`` fails (`_run_case`
+    returns None after printing the solve's error) or raises KeyboardInterrupt."""
     sol = fake_solution(np.linspace(0.0, 0.2, 2001))
 
     def run_case(args, model, ts, label):
-        if label == "with impact":
-            return sol, report.summarize(sol) | {"wall_first_s": 0.5, "wall_second_s": None}
-        if stop == "Ctrl-C":
-            raise KeyboardInterrupt
-        return None  # as `_run_case` after printing the solve's error
+        if label == stop_at:
+            if stop == "Ctrl-C":
+                raise KeyboardInterrupt
+            return None
+        return sol, report.summarize(sol) | {"wall_first_s": 0.5, "wall_second_s": None}
 
     monkeypatch.setattr(cli, "_run_case", run_case)
-    assert cli.main(["xu2014", "--out", str(tmp_path)]) == (130 if stop == "Ctrl-C" else 1)
-    for name in ("with_impact.csv", "summary.json", *FIGURES):
-        assert (tmp_path / name).stat().st_size > 1000, name
-    assert not (tmp_path / "without_impact.csv").exists()
-    assert list(json.loads((tmp_path / "summary.json").read_text())["cases"]) == ["with_impact"]
-    if stop == "Ctrl-C":
-        assert f"stopped; the files of the cases done are in {tmp_path}" in capsys.readouterr().err
+
+
+def staging_folders(out):
+    return sorted(out.parent.glob(f"{out.name}.partial-*"))
+
+
+def snapshot(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+@pytest.mark.parametrize("stop", ["a failed solve", "Ctrl-C"])
+def test_a_run_stopped_in_its_second_case_keeps_the_first_in_its_staging_folder(tmp_path, monkeypatch, capsys, stop):
+    """A run writes into a staging folder and moves it to --out only when complete. One that
+    stops in its second case (its solve fails: status 1, the figures of the first case drawn;
+    Ctrl-C: status 130, at once) leaves --out uncreated, and the staging folder holds the first
+    case's CSV and summary.json and a marker that says what it is; one line on stderr names it."""
+    fake_cases(monkeypatch, stop_at="without impact", stop=stop)
+    out = tmp_path / "out"
+    assert cli.main(["xu2014", "--out", str(out)]) == (130 if stop == "Ctrl-C" else 1)
+    assert not out.exists()
+    [staging] = staging_folders(out)
+    figures = FIGURES if stop == "a failed solve" else ()
+    assert set(os.listdir(staging)) == {"with_impact.csv", "summary.json", "INCOMPLETE", *figures}
+    assert list(json.loads((staging / "summary.json").read_text())["cases"]) == ["with_impact"]
+    why = "the solve of the case without impact failed" if stop == "a failed solve" else "stopped (KeyboardInterrupt)"
+    marker = (staging / "INCOMPLETE").read_text()
+    assert f"Stopped: {why}." in marker and "Finished: with impact" in marker and str(out) in marker
+    line = capsys.readouterr().err.strip().split("\n")[-1]
+    assert line == (f"jaxbearing xu2014: {why}; the cases finished (with impact) are in {staging}, "
+                    f"marked INCOMPLETE; {out} was not created")
+
+
+def test_a_folder_never_holds_files_of_two_runs(tmp_path, monkeypatch, capsys):
+    """A complete run replaces an earlier result whole (its figures do not survive a rerun
+    without figures); a rerun stopped after its first case leaves the complete earlier result
+    as it was, byte for byte, and its own first case in its staging folder; a run stopped
+    before any case deletes its staging folder."""
+    out = tmp_path / "out"
+    fake_cases(monkeypatch)
+    assert cli.main(["xu2014", "--out", str(out)]) == 0
+    assert set(os.listdir(out)) == {"with_impact.csv", "without_impact.csv", "summary.json", *FIGURES}
+    assert not staging_folders(out) and os.listdir(tmp_path) == ["out"]
+    assert cli.main(["xu2014", "--out", str(out), "--no-figures", "--t1", "0.15"]) == 0
+    complete = snapshot(out)
+    assert set(complete) == {"with_impact.csv", "without_impact.csv", "summary.json"}
+    assert json.loads(complete["summary.json"])["t1_s"] == 0.15
+
+    fake_cases(monkeypatch, stop_at="without impact")
+    assert cli.main(["xu2014", "--out", str(out), "--no-figures", "--t1", "0.1"]) == 130
+    assert snapshot(out) == complete
+    [staging] = staging_folders(out)
+    assert set(os.listdir(staging)) == {"with_impact.csv", "summary.json", "INCOMPLETE"}
+    assert json.loads((staging / "summary.json").read_text())["t1_s"] == 0.1
+    assert capsys.readouterr().err.strip().endswith(f"marked INCOMPLETE; {out} is as it was")
+
+    fake_cases(monkeypatch, stop_at="with impact")
+    assert cli.main(["xu2014", "--out", str(out), "--no-figures"]) == 130
+    assert snapshot(out) == complete and staging_folders(out) == [staging]  # the earlier one kept
+    assert capsys.readouterr().err.strip() == (
+        f"jaxbearing xu2014: stopped (KeyboardInterrupt) before any case was finished; nothing was "
+        f"written ({out} is as it was)")
+
+
+def _file_out(tmp_path):
+    (tmp_path / "results").write_text("a file")
+    return tmp_path / "results", r"is a file, not a folder: name a folder \(it is created if missing\)"
+
+
+def _foreign_out(tmp_path):
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "summary.json").write_text("{}")
+    (out / "notes.txt").write_text("mine")
+    return out, (r"holds files that are not a result of this command \(notes\.txt\), which replacing "
+                 r"it by the new result would delete: name another folder, or empty it")
+
+
+def _read_only_parent(tmp_path):
+    parent = tmp_path / "parent"
+    parent.mkdir()
+    return parent / "results", (rf"cannot write beside it, in {re.escape(str(parent))} "
+                                r"\((Read-only file system|Permission denied)\)")
+
+
+def _read_only_out(tmp_path):
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "summary.json").write_text("{}")
+    return out, r"is a read-only folder: name a folder this process may write"
+
+
+@pytest.mark.parametrize("where", [_file_out, _foreign_out, _read_only_parent, _read_only_out])
+def test_out_is_checked_before_anything_is_solved(tmp_path, monkeypatch, capsys, where):
+    """--out naming a file, a folder that holds other files, or a folder that cannot be written
+    or created: status 2 and one line on stderr, before any case is solved; nothing changes."""
+    from test_sweep_folder import read_only
+
+    def run_case(*args):
+        raise AssertionError("a case was solved")
+
+    monkeypatch.setattr(cli, "_run_case", run_case)
+    out, message = where(tmp_path)
+    locked = out.parent if where is _read_only_parent else out
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    with read_only(locked) if where in (_read_only_parent, _read_only_out) else contextlib.nullcontext():
+        assert cli.main(["xu2014", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.fullmatch(rf"jaxbearing xu2014: --out {re.escape(str(out))}: {message}\n", err), err
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before
 
 
 def test_cli_summary(quick_run):
@@ -376,6 +480,93 @@ def test_module_entry_point_help():
         )
         assert done.returncode == 0, done.stderr
         assert all(option in done.stdout for option in options)
+
+
+def start_command(out, *options, env=None):
+    """``python -m jaxbearing.cli xu2014 --out OUT *options`` as a child process (its stdout and
+    stderr piped, as text)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "jaxbearing.cli", "xu2014", "--out", str(out), *options],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+        env=dict(os.environ if env is None else env, PYTHONPATH=str(ROOT)),
+    )
+
+
+def read_until(stream, text):
+    """The lines of ``stream`` up to the first that holds ``text`` (AssertionError at the end)."""
+    lines = []
+    while line := stream.readline():
+        lines.append(line)
+        if text in line:
+            return lines
+    raise AssertionError(f"{text!r} not found in {''.join(lines)!r}")
+
+
+def earlier_result(out):
+    """A complete result of an earlier run in ``out`` (the names of one; made-up contents)."""
+    out.mkdir()
+    for name in ("with_impact.csv", "without_impact.csv", "summary.json"):
+        (out / name).write_text(f"an earlier run's {name}")
+    return snapshot(out)
+
+
+@pytest.mark.slow  # 60-90 s: five processes each start compiling the paper's case
+@pytest.mark.parametrize("stop", [(signal.SIGTERM, 1.0, 143), (signal.SIGTERM, 4.0, 143),
+                                  (signal.SIGTERM, 10.0, 143), (signal.SIGTERM, 20.0, 143),
+                                  (signal.SIGINT, 6.0, 130)], ids=lambda s: f"{s[0].name}-{s[1]:g}s")
+def test_a_signal_stops_the_command_at_once_during_the_first_compile(tmp_path, own_cache_env, stop):
+    """SIGTERM (or SIGINT) sent while the first case is traced, lowered or compiled by XLA
+    (without the compilation cache, so that it compiles) stops the command within seconds,
+    every time: exit status 143 (130), one line on stderr, no traceback; the earlier result in
+    --out is as it was and the staging folder is gone (no case was finished). Before, SIGTERM
+    was mapped to KeyboardInterrupt, which JAX's garbage-collection callback swallowed in 3 of
+    5 tries: the run went on and exited 0."""
+    number, delay, status = stop
+    out = tmp_path / "out"
+    before = earlier_result(out)
+    child = start_command(out, *QUICK, "--no-figures", env=own_cache_env(JAXBEARING_NO_COMPILATION_CACHE="1"))
+    try:
+        read_until(child.stderr, "with impact: compiling the model")
+        time.sleep(delay)
+        child.send_signal(number)
+        sent = time.monotonic()
+        _, err = child.communicate(timeout=60)
+    finally:
+        child.kill()
+    assert time.monotonic() - sent < 10, "the signal did not stop the command at once"
+    assert child.returncode == status, err
+    stopped = f"jaxbearing xu2014: stopped by {number.name}"
+    if "with impact: done" in err:  # the first case was solved before the signal (a slow day)
+        assert err.rstrip("\n").split("\n")[-1].startswith(stopped), err
+    else:
+        assert err == f"{stopped} before any case was finished; nothing was written ({out} is as it was)\n"
+        assert not staging_folders(out)
+    assert "Traceback" not in err
+    assert snapshot(out) == before
+
+
+@pytest.mark.slow  # 10-20 s: the quick run's solves, loaded from the compilation cache
+def test_sigterm_in_the_second_case_keeps_the_first_beside_the_earlier_result(quick_run, tmp_path):
+    """A rerun into a folder that holds a complete result, stopped by SIGTERM in its second case:
+    exit status 143 with one line naming the staging folder; --out holds the earlier result as
+    it was, and the staging folder the first case's CSV and summary.json, marked INCOMPLETE."""
+    out = tmp_path / "out"
+    shutil.copytree(quick_run[1], out)
+    before = snapshot(out)
+    child = start_command(out, *QUICK, "--no-figures")
+    try:
+        read_until(child.stderr, "without impact: compiling the model")
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=60)
+    finally:
+        child.kill()
+    assert child.returncode == 143, err
+    [staging] = staging_folders(out)
+    assert err == (f"jaxbearing xu2014: stopped by SIGTERM; the cases finished (with impact) are in "
+                   f"{staging}, marked INCOMPLETE; {out} is as it was\n")
+    assert set(os.listdir(staging)) == {"with_impact.csv", "summary.json", "INCOMPLETE"}
+    assert "Stopped: stopped by SIGTERM." in (staging / "INCOMPLETE").read_text()
+    assert snapshot(out) == before
 
 
 # ---------------------------------------------------------------------------------------------

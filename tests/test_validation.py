@@ -265,6 +265,21 @@ BAD_INPUTS = [
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,
                          stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=-1.0)),
      r"atol must be a finite number >= 0; got atol = -1\.0\."),
+    # step-size control: StepTo refused, a constant step needs dt0, dt0 a step within the span
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,
+                         stepsize_controller=diffrax.StepTo(ts=np.linspace(0.0, 0.01, 11))),
+     r"stepsize_controller=diffrax\.StepTo is not supported: its grid of step ends cannot survive the "
+     r"restarts of the solve at its events .* simulate supports diffrax\.PIDController \(e\.g\. "
+     r"jaxbearing\.default_controller\(rtol, atol\)\) and diffrax\.ConstantStepSize\(\) with its step in "
+     r"jaxbearing\.SolveOptions\(dt0=\.\.\.\)"),
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=diffrax.ConstantStepSize()),
+     r"stepsize_controller=diffrax\.ConstantStepSize\(\) needs its step: set it in "
+     r"jaxbearing\.SolveOptions\(dt0=\.\.\.\) \[s\]"),
+    *[(lambda dt0=dt0: jb.simulate(jb.cases.xu2014(impact=False), 0.01, options=jb.SolveOptions(dt0=dt0)),
+       rf"dt0 must be a finite step \[s\] above 0 and below t1 - t0 = 0\.01 s; got dt0 = {shown}\.")
+      for dt0, shown in ((0.0, r"0\.0"), (-1e-6, r"-1e-06"), (np.nan, "nan"), (np.inf, "inf"), (0.01, r"0\.01"))],
+    (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, options=jb.SolveOptions(dt0="1 us")),
+     r"dt0 must be one number, a step \[s\]; got '1 us'\."),
     # parameter paths: one parameter named twice, a static setting, a non-positive scale
     (lambda: jb.paths.replace(jb.cases.xu2014(), {"bearing.clearance": 1e-5, "forces.0.bearing.clearance": 2e-5}),
      r"Parameter paths 'bearing\.clearance' and 'forces\.0\.bearing\.clearance' name the same parameter; give it once\."),

@@ -264,6 +264,8 @@ def resolved_settings(sim_kwargs, solve="segments"):
     settings["atol"] = getattr(controller, "atol", None)
     options = _checked_options(sim_kwargs.get("options"))
     settings.update({f.name: getattr(options, f.name) for f in dataclasses.fields(options)})
+    if settings["dt0"] is None:  # recorded only when set: older folders stay resumable
+        del settings["dt0"]
     if settings.get("max_segments") is None:
         settings["max_segments"] = 0
     return dict(sorted(settings.items()))

@@ -102,6 +102,9 @@ def _is_impact(label: str) -> bool:
     return "without" not in label.lower()
 
 
+FIGURE_FILES = tuple(figure.file for figure in _figures([]))  # the files `plot_figures` writes
+
+
 def plot_figures(out_dir, cases: Mapping[str, Mapping | object], window=FIGURE_WINDOW) -> list[Path]:
     """Draw the paper's Figs. 12–15 with the given cases overlaid and write them as PNGs.
 

@@ -47,8 +47,8 @@ def simulate_one_loop(
         model: a `Mechanism`; starts from ``model.q0, qd0``.
         t1: final time [s], > t0.
         solver, stepsize_controller, max_steps, throw: as in `simulate`.
-        options: `SolveOptions`; its ``t0``, ``window_edges``, ``fatigue`` and ``max_onsets``
-            apply (the one loop has no segments).
+        options: `SolveOptions`; its ``t0``, ``dt0``, ``window_edges``, ``fatigue`` and
+            ``max_onsets`` apply (the one loop has no segments).
 
     Forward-mode derivatives (`jax.jvp`, `jax.jacfwd`) agree with `simulate`'s; reverse mode
     raises (use `simulate`).
@@ -58,7 +58,8 @@ def simulate_one_loop(
     stops = _checks.window_stops(a.options.window_edges, a.model.window_start, record_edges(records))
     fatigue = a.options.fatigue is not False
     sol = _one_loop(
-        a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, records,
+        a.model, a.t0, a.t1, a.dt0, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue,
+        records,
         a.max_onsets,
     )
     rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
@@ -68,9 +69,10 @@ def simulate_one_loop(
 
 
 @eqx.filter_jit
-def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets):
+def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets):
     setup, state = core_start(
-        model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, "lax"
+        model, t0, t1, dt0, None, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets,
+        "lax",
     )
     final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
     final = eqxi.nondifferentiable_backward(

@@ -42,6 +42,14 @@ class SolveOptions(eqx.Module):
 
     Fields:
         t0: start time [s]; ``model.q0, qd0`` must satisfy the joints there (default 0).
+        dt0: the first step [s], finite, > 0 and below t1 - t0; with
+            ``stepsize_controller=diffrax.ConstantStepSize()`` (which needs it) every step: each
+            step is dt0 long from where the last one ended, cut short at a stop (window edge,
+            t1) or an event, and a step whose result is not finite fails the run
+            (``dt_min_reached``). A constant step takes (t1 - t0) / dt0 steps or more: raise
+            ``max_steps`` and ``max_segments`` where they do not allow them. None (the default):
+            1e-7 (t1 - t0), from which an adaptive controller grows the step. Another
+            value compiles nothing new.
         window_edges: further times [s] at which the solve stops, so that `jaxbearing.metrics`
             and `jaxbearing.life` can use them as window edges (t0, the model's
             ``window_start`` and t1 always are). A tuple: its length is part of the compiled solve.
@@ -67,6 +75,7 @@ class SolveOptions(eqx.Module):
     """
 
     t0: float = 0.0
+    dt0: float | None = None
     window_edges: tuple = eqx.field(default=(), static=True)
     fatigue: bool | None = eqx.field(default=None, static=True)
     max_segments: int | None = eqx.field(default=None, static=True)

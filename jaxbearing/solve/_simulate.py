@@ -44,7 +44,7 @@ from ._segments import (
     padded_times,
     slot,
 )
-from ._stops import default_output_block, for_loop_kind, stops as _stops, with_root_tolerances
+from ._stops import default_output_block, for_loop_kind, for_restarts, stops as _stops, with_root_tolerances
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 RTOL, ATOL = 1e-8, 1e-10  # the default step-size control's tolerances (state in m, rad, m/s)
@@ -106,7 +106,9 @@ def simulate(
             stiff solver.
         stepsize_controller: a diffrax step-size controller; default `default_controller()`
             (rtol 1e-8, atol 1e-10). Its rtol and atol are values of the compiled solve, like
-            ``max_steps``: other values compile nothing.
+            ``max_steps``: other values compile nothing. ``diffrax.ConstantStepSize()`` takes
+            its step from ``options.dt0``; ``diffrax.StepTo`` is refused (its grid cannot
+            survive the restarts at events).
         adjoint: how the solve's loops are differentiated, as in diffrax. The default (None)
             is reverse mode, for `jax.grad` and `jax.jacrev` (as
             `diffrax.RecursiveCheckpointAdjoint`, storing every step of a segment:
@@ -135,6 +137,7 @@ def simulate(
         model,
         t0,
         t1,
+        a.dt0,
         ts,
         solver,
         stepsize_controller,
@@ -159,6 +162,7 @@ class SolveArguments(NamedTuple):
     span: tuple  # (t0, t1) as given: Python numbers stay concrete under the caller's jit
     t0: jax.Array  # [s]
     t1: jax.Array  # [s]
+    dt0: jax.Array  # [s] the first step (`SolveOptions.dt0`)
     solver: diffrax.AbstractSolver
     controller: diffrax.AbstractStepSizeController
     max_onsets: int
@@ -182,7 +186,9 @@ def solve_arguments(caller: str, model, t1, solver, controller, max_steps, optio
         default_controller() if controller is None else _checks.checked_controller(controller)
     )
     solver = with_root_tolerances(solver, controller)
-    return SolveArguments(model, options, span, t0, t1, solver, controller, max_onsets)
+    dt0 = _checks.checked_dt0(options.dt0, controller, t0, t1)
+    dt0 = (t1 - t0) * INITIAL_STEP if dt0 is None else dt0
+    return SolveArguments(model, options, span, t0, t1, dt0, solver, controller, max_onsets)
 
 
 def _segmentation(model, options: SolveOptions, span, ts) -> tuple[int, int, int]:
@@ -259,10 +265,10 @@ def _checked_options(options) -> SolveOptions:
 
 
 def core_start(
-    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
+    model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
 ):
     """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
-    rule of the run (`_checks.start_rules`) is broken."""
+    rule of the run (`_checks.start_rules`) is broken. ``dt0``: the first step [s]."""
     n = model.n_coordinates
 
     def vector_field(t, y, args):
@@ -275,7 +281,7 @@ def core_start(
         model=model,
         term=diffrax.ODETerm(vector_field),
         solver=for_loop_kind(solver, kind),
-        controller=controller,
+        controller=for_restarts(controller),
         stops=_stops(t0, t1, extra_stops),
         t1=t1,
         max_steps=max_steps,
@@ -284,16 +290,18 @@ def core_start(
     )
     invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
-    return setup, initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
+    return setup, initial_state(setup, t0, y0, dt0, max_onsets, invalid)
 
 
 @eqx.filter_jit
 def _simulate(
-    model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, sizes, progress, kind
+    model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, sizes, progress,
+    kind,
 ):
     max_segments, segment_steps, block, max_onsets = sizes
     setup, state = core_start(
-        model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
+        model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets,
+        kind,
     )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
     final, used = jax.lax.scan(

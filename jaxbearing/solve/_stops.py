@@ -1,5 +1,6 @@
-"""Where steps end (the stops: the model's window start, the window edges, t1), the output block of a
-segment, and the solver settings that depend on the adjoint and the controller."""
+"""Where steps end (the stops: the model's window start, the window edges, t1), the output block
+of a segment, and the solver and controller settings that depend on the adjoint and the
+controller."""
 
 from __future__ import annotations
 
@@ -58,3 +59,27 @@ def for_loop_kind(solver, kind: str):
     if kind == "checkpointed" or not runge_kutta or solver.scan_kind is not None:
         return solver
     return eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)
+
+
+class _StepFromEachEnd(diffrax.AbstractStepSizeController):
+    """A constant step dt0 (the ``dt0`` that ``init`` gets) from wherever the last step ended.
+    diffrax's `ConstantStepSize` steps to a grid over [t0, t1] fixed at the start, which the
+    solve leaves at each stop or event (the step after one would be up to 2 dt0 long). Accepts
+    every step whose error is finite; a step whose result is not finite (the core makes its
+    error infinite) gets a next step of 0, which fails the run at once (`_core.SMALLEST_STEP`)."""
+
+    def wrap(self, direction):
+        return self
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        return t0 + dt0, jnp.asarray(dt0)
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, dt0):
+        finite = jnp.all(jnp.isfinite(y_error))
+        return finite, t1, jnp.where(finite, t1 + dt0, t0), False, dt0, diffrax.RESULTS.successful
+
+
+def for_restarts(controller):
+    """The step-size controller the core runs: ``controller``, a `diffrax.ConstantStepSize` as
+    `_StepFromEachEnd`."""
+    return _StepFromEachEnd() if isinstance(controller, diffrax.ConstantStepSize) else controller
