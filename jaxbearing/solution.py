@@ -553,13 +553,22 @@ def fatigue_sizes(model, fatigue: bool) -> tuple[int, ...]:
     return tuple(5 + 2 * RING_POINTS_PER_BALL * j.bearing.n_balls for j in model.bearings)
 
 
-def _per_time(sol: Solution) -> list:
-    """The per-time arrays of ``sol`` (first axis: its output times)."""
-    bearings = [x for b in sol.bearings for x in (b.ball_loads, b.force, b.cage_angle)]
-    return [
-        sol.ts, sol.q, sol.qd, sol.qdd, *bearings, sol.contact_forces, sol.penetrations,
-        sol.approach_speed, sol.drift,
-    ]  # fmt: skip
+_PER_TIME = ("ts", "q", "qd", "qdd", "contact_forces", "penetrations", "approach_speed", "drift")
+_PER_TIME_BEARING = ("ball_loads", "force", "cage_angle")
+
+
+def map_per_time(fn, sol: Solution, *more: Solution) -> Solution:
+    """``sol`` with each per-time array x (first axis: the output times) replaced by
+    ``fn(x, *the same array of each of more)``."""
+
+    def mapped(node, others, names):
+        return {k: fn(getattr(node, k), *(getattr(o, k) for o in others)) for k in names}
+
+    bearings = tuple(
+        dataclasses.replace(b, **mapped(b, [m.bearings[i] for m in more], _PER_TIME_BEARING))
+        for i, b in enumerate(sol.bearings)
+    )
+    return dataclasses.replace(sol, bearings=bearings, **mapped(sol, more, _PER_TIME))
 
 
 def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments, records=()) -> Solution:
@@ -655,7 +664,7 @@ def _contacts(x) -> Contacts:
 def first_rows(sol: Solution, n: int) -> Solution:
     """``sol`` with its per-time fields cut to the first ``n`` output times (a solve padded its
     output times to share a compiled solve: `solve._simulate._bucketed`)."""
-    return eqx.tree_at(_per_time, sol, [x[:n] for x in _per_time(sol)])
+    return map_per_time(lambda x: x[:n], sol)
 
 
 DRIFT_FRACTION = 0.01  # of the smallest positive diametral bearing clearance: `drift_bound`

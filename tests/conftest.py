@@ -18,7 +18,8 @@ jax.config.update("jax_enable_x64", True)
 # tests follow one by one.
 SHARED = {  # modules, each a group
     "test_compile", "test_hertz", "test_impact",
-    "test_multibody", "test_progress", "test_rotor_metrics", "test_sweep",
+    "test_multibody", "test_progress", "test_rotor_metrics", "test_sweep", "test_records",
+    "test_two_bearings",
 }
 MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the paper's case over 0-0.2 s, up to 2048 output times, with impact and without
@@ -28,7 +29,7 @@ MODULE_GROUPS = {  # modules that share compiled solves: one group
     "free_0.02s": ("test_pauses", "test_metrics_exact"),
     # the paper's case over 0-0.005 s (up to 2048 output times; its contact, switched on at
     # 0.05 s, does not act yet)
-    "paper_0.005s": ("test_transforms", "test_validation", "test_windows"),
+    "paper_0.005s": ("test_transforms", "test_validation", "test_windows", "test_fail_safe"),
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     # the paper's case without impact, 0-0.02 s, 201 output times, default options

@@ -61,6 +61,12 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         contact_force=contact,
         segments=fake_segments(ts, loads, np.hypot(force[:, 0], force[:, 1]), contact),
         penetration=np.zeros(T),
+        bearings=(SimpleNamespace(ball_loads=loads, force=force, cage_angle=np.zeros(T)),),
+        n_bearings=1,
+        n_contacts=1,
+        contact_forces=contact[:, None],
+        targets=(9,),
+        t1=ts[-1],
         drift=np.linspace(0.0, 1e-11, T),
         contacts=SimpleNamespace(
             time=records[0], approach_speed=records[1], index=index, valid=index >= 0,
@@ -89,7 +95,7 @@ def fake_segments(ts, loads, bearing, contact):
         at_peak.append(loads[inside[np.argmax(largest)]])
     return SimpleNamespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
                            valid=np.ones(len(rows), bool), peak_times=np.array(times),
-                           peak_loads=np.array(at_peak))
+                           peak_loads=(np.array(at_peak),))
 
 
 def test_series_names_and_values():
@@ -229,7 +235,7 @@ def test_summary_peaks_come_from_the_solution_not_the_samples():
     assert report.summarize(sol)["peak_ball_load_ball"] == 2
     sol.segments.peaks[-1, :3] = [7.0, 6.0, 64.0]  # between samples, after 0.04 s
     sol.segments.peak_times[-1, :3] = [0.0512, 0.0634, 0.0937]
-    sol.segments.peak_loads[-1] = [0.0, 1.0, 2.0, 3.0, 7.0, 2.0, 1.0, 0.0]
+    sol.segments.peak_loads[0][-1] = [0.0, 1.0, 2.0, 3.0, 7.0, 2.0, 1.0, 0.0]
     s = report.summarize(sol)
     assert (s["peak_ball_load_N"], s["peak_bearing_force_N"], s["peak_impact_force_N"]) == (7.0, 6.0, 64.0)
     times = [s[f"peak_{name}_time_s"] for name in ("ball_load", "bearing_force", "impact_force")]

@@ -13,7 +13,7 @@ import pytest
 import jaxbearing as jb
 from jaxbearing import metrics as M
 from jaxbearing import report
-from jaxbearing.solution import _per_time, INT_TIME
+from jaxbearing.solution import INT_TIME, map_per_time
 
 T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases (no impact yet)
 EDGE = 0.013  # [s] a window edge that is no stop of `dense`
@@ -33,8 +33,7 @@ def dense(model):
     runs = [jb.simulate(model, T1, part) for part in np.array_split(np.linspace(0.0, T1, 20001), 10)]
     for run in runs[1:]:
         assert int(run.num_steps) == int(runs[0].num_steps)  # the same solve, sampled elsewhere
-    samples = [jnp.concatenate(rows) for rows in zip(*map(_per_time, runs))]  # as first_rows
-    return eqx.tree_at(_per_time, runs[0], samples)
+    return map_per_time(lambda *rows: jnp.concatenate(rows), *runs)  # as first_rows
 
 
 @pytest.fixture(scope="module")

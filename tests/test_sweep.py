@@ -194,7 +194,7 @@ def test_grid_labels_and_values_match_single_runs(grid_result):
     assert list(ds["peak_ball_load"].dims) == ["bearing.clearance", "bearing.damping"]
     np.testing.assert_array_equal(ds["bearing.clearance"].values, CLEARANCES)
     np.testing.assert_array_equal(ds["bearing.damping"].values, DAMPINGS)
-    assert set(ds.data_vars) == set(METRICS) | {"status", "failed"}
+    assert set(ds.data_vars) == set(METRICS) | {"status", "failed", "max_drift"}
     assert ds.attrs["t1"] == T1 and ds.attrs["max_steps"] == MAX_STEPS and ds.attrs["rtol"] == 1e-8
     assert json.loads(ds.attrs["status_codes"])[str(MAX_STEPS_REACHED)] == "max_steps_reached"
 
@@ -438,8 +438,9 @@ def test_corrupted_files_are_named(tmp_path):
     with pytest.raises(ValueError, match="chunk_00000.npz.*corrupted"):
         run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
     with open(chunk, "wb") as f:  # readable, but not what the manifest says
-        np.savez(f, start=0, stop=2, points=np.zeros((2, 2)), metric_names=np.array(list(METRICS)),
-                 values=np.zeros((2, len(METRICS))), status=np.zeros(2, np.int32),
+        names = [*METRICS, "max_drift"]  # every sweep records the members' drift
+        np.savez(f, start=0, stop=2, points=np.zeros((2, 2)), metric_names=np.array(names),
+                 values=np.zeros((2, len(names))), status=np.zeros(2, np.int32),
                  errors=np.array(["", ""]))
     with pytest.raises(ValueError, match="chunk_00000.npz.*parameter values"):
         run({"bearing.clearance": CLEARANCES[:2], "bearing.damping": DAMPINGS[:1]}, out=tmp_path)
@@ -508,7 +509,7 @@ def test_sweep_killed_by_sigkill_resumes_with_identical_results(other_process_re
     assert resumed.failed.values.sum() == 6  # the members with damping 1e8
     with xr.open_dataset(killed / "results.nc") as saved:
         assert_same(saved.load(), resumed)
-    rows = np.stack([resumed[name].values for name in METRICS], axis=1)
+    rows = np.stack([resumed[name].values for name in [*METRICS, "max_drift"]], axis=1)
     for name in written:  # what the killed process wrote is what the resumed sweep returns
         k = int(name[6:11])
         with np.load(killed / name) as before:
