@@ -26,9 +26,7 @@
    a run meets would otherwise compile again in every process, a good part of a second run's
    time. Only where the process has not chosen a cache folder itself
    (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps
-   the user's settings. Wherever the cache is, its folder also holds the solves that
-   `jaxbearing._stored` keeps traced and lowered (``jaxbearing-solves``), which spare a
-   later process the tracing too. Opt-out of both: ``JAXBEARING_NO_COMPILATION_CACHE=1``.
+   the user's settings. Opt-out: ``JAXBEARING_NO_COMPILATION_CACHE=1``.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .. import _checks, _stored
+from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
 from ..solution import RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure
@@ -233,8 +233,8 @@ def _with_adjoint(adjoint, *args):
     JAX refuses to differentiate in forward mode: a `TypeError` raised while tracing under such a
     loop carries a note naming the adjoint to pass."""
     kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
-    try:  # without a progress bar (no host callback) the program is kept by `jaxbearing._stored`
-        return _stored.call(_simulate, *args, kind) if args[-1] is None else _simulate(*args, kind)
+    try:
+        return _simulate(*args, kind)
     except TypeError as err:
         if kind == "checkpointed":
             err.add_note(
