@@ -24,9 +24,13 @@
    ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS``; JAX's default keeps only those that took a
    second or more): the main job's summaries, the stiffness laws and the other small programs
    a run meets would otherwise compile again in every process, a good part of a second run's
-   time. Only where the process has not chosen a cache folder itself
-   (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps
-   the user's settings. Opt-out: ``JAXBEARING_NO_COMPILATION_CACHE=1``.
+   time. The cache is bounded (``jax_compilation_cache_max_size`` `CACHE_MAX_SIZE`, unless the
+   process set a size itself, by ``jax.config.update`` or ``JAX_COMPILATION_CACHE_MAX_SIZE``):
+   beyond it JAX deletes the least recently used programs, which needs the ``filelock``
+   package (a dependency of jaxbearing; without it JAX warns and caches nothing). Only where
+   the process has not chosen a cache folder itself (``jax_compilation_cache_dir``,
+   ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps the user's settings. Opt-out:
+   ``JAXBEARING_NO_COMPILATION_CACHE=1``; an unbounded cache: ``JAX_COMPILATION_CACHE_MAX_SIZE=-1``.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import jax
 LOOP_KERNELS_FLAG = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000"
 OPT_OUT = "JAXBEARING_KEEP_XLA_FLAGS"
 CACHE_OPT_OUT = "JAXBEARING_NO_COMPILATION_CACHE"
+CACHE_MAX_SIZE = 2 * 1024**3  # [bytes] the cache's bound (the paper's solve takes about 0.6 MB)
 
 
 def _true(name: str) -> bool:
@@ -75,4 +80,7 @@ def apply_compilation_cache() -> Path | None:
     jax.config.update("jax_compilation_cache_dir", str(cache_dir()))
     if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    unbounded = jax.config.jax_compilation_cache_max_size == -1  # JAX's default
+    if unbounded and "JAX_COMPILATION_CACHE_MAX_SIZE" not in os.environ:
+        jax.config.update("jax_compilation_cache_max_size", CACHE_MAX_SIZE)
     return cache_dir()

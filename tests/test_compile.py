@@ -266,15 +266,17 @@ if sys.argv[1:] == ["build"]:
     jaxbearing.cases.xu2014()  # compiles the two stiffness laws, each in well under a second
 folder = jax.config.jax_compilation_cache_dir
 stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
-print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs, stored]))
+config = jax.config
+print(json.dumps([folder, config.jax_persistent_cache_min_compile_time_secs, stored, config.jax_compilation_cache_max_size]))
 """
 
 
 def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cache_env):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the stiffness laws of a model, compiled
-    in a fraction of a second, are stored), unless the process chose a folder or a threshold
-    itself or opts out."""
+    in a fraction of a second, are stored), bounded in size (JAX then needs `filelock`, else it
+    stores nothing), unless the process chose a folder, a threshold or a size itself or opts
+    out."""
 
     def cache(*args, **env):
         done = subprocess.run(
@@ -283,10 +285,12 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cac
         assert done.returncode == 0, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])
 
-    folder, threshold, stored = cache("build", XDG_CACHE_HOME=str(tmp_path))
-    assert (folder, threshold) == (str(tmp_path / "jaxbearing" / "jax"), 0.0)
+    folder, threshold, stored, size = cache("build", XDG_CACHE_HOME=str(tmp_path))
+    assert (folder, threshold, size) == (str(tmp_path / "jaxbearing" / "jax"), 0.0, _process.CACHE_MAX_SIZE)
     assert {"jit__bearing_stiffness", "jit__impact_stiffness"} <= set(stored), stored
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="2")[1] == 2.0
     elsewhere = cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")
-    assert elsewhere == ["/elsewhere", 1.0, []]
-    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, []]
+    assert elsewhere == ["/elsewhere", 1.0, [], -1]
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="-1")[3] == -1
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="1000000")[3] == 1_000_000
+    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, [], -1]
