@@ -127,6 +127,39 @@ def test_loops_compile_whole_by_default_with_an_opt_out():
     assert _fresh("on", XLA_FLAGS=own)["flags"] == own
 
 
+_IMPORT = """
+import json, os, sys
+import jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np
+if sys.argv[1] == "late":
+    jax.device_put(np.ones(2)) + 1.0  # the process's first computation: JAX starts its backends
+import jaxbearing
+from jaxbearing import _process
+print(json.dumps([_process.backends_started(), os.environ.get("XLA_FLAGS", "")]))
+"""
+
+
+def test_the_loop_flag_is_added_only_before_the_first_computation():
+    """XLA reads XLA_FLAGS when JAX starts its backends: imported before the process's first
+    computation, jaxbearing adds its loop flag (and importing it starts no backend); imported
+    after it, the flag could change nothing and is not added (a process started from this one
+    would inherit it). `backends_started` tells the two apart and leaves its probe as it was."""
+    env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", _process.OPT_OUT)}
+
+    def run(when):
+        done = subprocess.run([sys.executable, "-c", _IMPORT, when], env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    assert run("early") == [False, _process.LOOP_KERNELS_FLAG]
+    assert run("late") == [True, ""]
+    probe = getattr(jax.config, _process._PROBE)
+    jnp.ones(2) + 1.0  # this process has computed
+    assert _process.backends_started()
+    assert getattr(jax.config, _process._PROBE) == probe  # left as it was
+
+
 _SECOND_PROCESS = """
 import json
 import equinox as eqx
@@ -261,8 +294,10 @@ import json, sys
 from pathlib import Path
 import jax
 jax.config.update("jax_enable_x64", True)
+if "own-threshold" in sys.argv:
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 5.0)
 import jaxbearing
-if sys.argv[1:] == ["build"]:
+if "build" in sys.argv:
     jaxbearing.cases.xu2014()  # compiles the two stiffness laws, each in well under a second
 folder = jax.config.jax_compilation_cache_dir
 stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
@@ -286,9 +321,10 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cac
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     folder, threshold, stored, size = cache("build", XDG_CACHE_HOME=str(tmp_path))
-    assert (folder, threshold, size) == (str(tmp_path / "jaxbearing" / "jax"), 0.0, _process.CACHE_MAX_SIZE)
+    assert (folder, threshold, size) == (str(tmp_path / "jaxbearing" / "jax-lru"), 0.0, _process.CACHE_MAX_SIZE)
     assert {"jit__bearing_stiffness", "jit__impact_stiffness"} <= set(stored), stored
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="2")[1] == 2.0
+    assert cache("own-threshold", XDG_CACHE_HOME=str(tmp_path))[1] == 5.0  # set before the import
     elsewhere = cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")
     assert elsewhere == ["/elsewhere", 1.0, [], -1]
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="-1")[3] == -1
