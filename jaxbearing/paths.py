@@ -32,6 +32,25 @@ def get(model, path: str):
     return node
 
 
+def typed(model, path: str) -> str:
+    """The path a user types for the parameter at ``path``, a model's tree path
+    (``"forces.0.bearing.clearance"``): the model's bearing joints through ``bearings``
+    (``"bearings.1.bearing.clearance"``), the parameters of its only bearing through
+    ``bearing`` (``"bearing.clearance"``) and of its only contact through ``impact``
+    (``"impact.restitution"``); any other path as it is. Each reads the same leaf with `get`."""
+    parts = path.split(".")
+    if len(parts) > 2 and parts[0] == "forces":
+        element = model.forces[int(parts[1])]
+        joints = [k for k, joint in enumerate(model.bearings) if joint is element]
+        if joints:
+            if len(model.bearings) == 1 and parts[2] == "bearing":
+                return ".".join(parts[2:])
+            return ".".join(["bearings", str(joints[0])] + parts[2:])
+    if len(parts) > 2 and parts[0] == "contacts" and len(model.contacts) == 1 and parts[2] == "impact":
+        return ".".join(parts[2:])
+    return path
+
+
 def replace(model, values: Mapping[str, object]):
     """A copy of ``model`` with each ``path -> value`` of ``values`` set."""
     if not values:

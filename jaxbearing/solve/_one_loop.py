@@ -56,16 +56,15 @@ def simulate_one_loop(
     a = solve_arguments("simulate_one_loop", model, t1, solver, stepsize_controller, max_steps, options)
     stops = _checks.window_stops(a.options.window_edges, a.model.window_start)
     fatigue = a.options.fatigue is not False
-    sol = _one_loop(
+    sol, broken = _one_loop(
         a.model, a.t0, a.t1, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue, a.max_onsets
     )
-    rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
-    return raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
+    return raise_on_failure(sol, a.t1, broken, ROOT_STEPS) if throw else sol
 
 
 @eqx.filter_jit
 def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue, max_onsets):
-    setup, state = core_start(
+    setup, state, broken = core_start(
         model, t0, t1, None, solver, controller, max_steps, extra_stops, fatigue, max_onsets, "lax"
     )
     final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
@@ -77,7 +76,8 @@ def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue
     rows = lambda start, size, in_blocks=False: tuple(  # noqa: E731
         jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
     )
-    return solution(
+    sol = solution(
         model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
         jnp.asarray(1),
     )
+    return sol, broken

@@ -128,7 +128,7 @@ def simulate(
     sizes = _segmentation(model, options, a.span, ts) + (a.max_onsets,)
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
-    sol = _with_adjoint(
+    sol, broken = _with_adjoint(
         adjoint,
         model,
         t0,
@@ -143,7 +143,7 @@ def simulate(
         None if progress is None else label_key(progress),
     )
     if throw:
-        sol = raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts), ROOT_STEPS)
+        sol = raise_on_failure(sol, t1, broken, ROOT_STEPS)
     return sol if ts.shape[0] == n_out else first_rows(sol, n_out)
 
 
@@ -257,8 +257,8 @@ def _checked_options(options) -> SolveOptions:
 def core_start(
     model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
 ):
-    """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
-    rule of the run (`_checks.start_rules`) is broken."""
+    """The core's `Setup` of one solve, its `State` at t0 (both drivers), done at once where a
+    rule of the run (`_checks.start_rules`) is broken, and which rule (`_checks.Broken`)."""
     n = model.n_coordinates
 
     def vector_field(t, y, args):
@@ -277,15 +277,16 @@ def core_start(
         max_steps=max_steps,
         fatigue=fatigue,
     )
-    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
+    broken = _checks.broken(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
-    return setup, initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, invalid)
+    state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, broken.index >= 0)
+    return setup, state, broken
 
 
 @eqx.filter_jit
 def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, sizes, progress, kind):
     max_segments, segment_steps, block, max_onsets = sizes
-    setup, state = core_start(
+    setup, state, broken = core_start(
         model, t0, t1, ts, solver, controller, max_steps, extra_stops, fatigue, max_onsets, kind
     )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
@@ -294,10 +295,11 @@ def _simulate(model, t0, t1, ts, solver, controller, max_steps, extra_stops, fat
     )
     x = final.state
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
-    return solution(
+    sol = solution(
         model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
         final.written, final.written // block * block, jnp.sum(used),  # full blocks: evaluated
     )
+    return sol, broken
 
 
 def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
