@@ -40,12 +40,12 @@ def typed(model, path: str) -> str:
     (``"impact.restitution"``); any other path as it is. Each reads the same leaf with `get`."""
     parts = path.split(".")
     if len(parts) > 2 and parts[0] == "forces":
-        element = model.forces[int(parts[1])]
-        joints = [k for k, joint in enumerate(model.bearings) if joint is element]
-        if joints:
-            if len(model.bearings) == 1 and parts[2] == "bearing":
+        i, bearings = int(parts[1]), model.bearings
+        is_bearing = [any(f is joint for joint in bearings) for f in model.forces]
+        if is_bearing[i]:
+            if len(bearings) == 1 and parts[2] == "bearing":
                 return ".".join(parts[2:])
-            return ".".join(["bearings", str(joints[0])] + parts[2:])
+            return ".".join(["bearings", str(sum(is_bearing[:i]))] + parts[2:])
     if len(parts) > 2 and parts[0] == "contacts" and len(model.contacts) == 1 and parts[2] == "impact":
         return ".".join(parts[2:])
     return path

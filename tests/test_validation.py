@@ -13,7 +13,7 @@ import optax
 import pytest
 
 import jaxbearing as jb
-from jaxbearing import config
+from jaxbearing import _checks, config
 from jaxbearing.multibody import (
     GROUND,
     Body,
@@ -311,6 +311,28 @@ def _short_solution():
 def test_bad_input_is_rejected_naming_parameter_range_and_value(make, message):
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def _two_bearings():
+    """A disc held by two bearing joints (no solve: its rules are read on the host)."""
+    joints = [jb.multibody.BearingJoint(GROUND, (0.0, 0.0), 0, (0.0, 0.0), bearing()) for _ in range(2)]
+    return Mechanism([Body(2.0, 2e-3)], [], [0.0, 0.0, 0.0], forces=joints)
+
+
+def test_a_solve_names_each_parameter_by_a_path_that_reads_it():
+    """Inside a solve a parameter is named as `jb.paths` reads it: every floating leaf's name is
+    a path that `jb.paths.get` follows back to that very leaf, through ``bearing`` and
+    ``impact`` on the paper's case and through ``bearings.1`` on a model with two bearing
+    joints, whose rules name the second one's clearance so."""
+    for model in (jb.cases.xu2014(), _two_bearings()):
+        for path, leaf in jax.tree_util.tree_leaves_with_path(model):
+            name = jb.paths.typed(model, jax.tree_util.keystr(path, simple=True, separator="."))
+            assert jb.paths.get(model, name) is leaf, name
+    assert jb.paths.typed(jb.cases.xu2014(), "forces.0.bearing.clearance") == "bearing.clearance"
+    assert jb.paths.typed(jb.cases.xu2014(), "contacts.0.impact.restitution") == "impact.restitution"
+    bad = eqx.tree_at(lambda m: m.bearings[1].bearing.clearance, _two_bearings(), -1e-6)
+    with pytest.raises(ValueError, match=r"^bearings\.1\.bearing\.clearance must be zero or positive \[m\]; got -1e-06\.$"):
+        _checks.raise_first(bad.parameter_violations(np))
 
 
 def test_a_window_edge_off_the_stops_is_nan_under_jit():
