@@ -132,8 +132,8 @@ def check(rules_of, *values) -> None:
 
 def first_broken(rules: Iterable[Rule]) -> tuple[jax.Array, jax.Array]:
     """In `jax.numpy`, under jit: the index of the first broken rule of ``rules`` (-1 where
-    none is) and a number of its value: its first element that breaks the rule (the whole value
-    where the rule is one condition on several elements, as on output times: its first)."""
+    none is) and one number of its value: the first element that breaks the rule, or the
+    value's first element where the rule is one condition on all of them (the output times)."""
     rules = list(rules)
     if not rules:
         return jnp.asarray(-1, jnp.int32), jnp.asarray(jnp.nan)
