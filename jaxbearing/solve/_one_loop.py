@@ -77,7 +77,6 @@ def _one_loop(model, t0, t1, solver, controller, max_steps, extra_stops, fatigue
         jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
     )
     sol = solution(
-        model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
-        jnp.asarray(1),
+        model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2, jnp.asarray(1)
     )
     return sol, broken

@@ -234,7 +234,7 @@ def _with_adjoint(adjoint, *args):
     loop carries a note naming the adjoint to pass."""
     kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
     try:
-        return _simulate(*args, kind)
+        return _simulate(*args, kind)  # (the `Solution`, the broken rule: `_checks.Broken`)
     except TypeError as err:
         if kind == "checkpointed":
             err.add_note(
@@ -279,8 +279,7 @@ def core_start(
     )
     broken = _checks.broken(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
-    state = initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, broken.index >= 0)
-    return setup, state, broken
+    return setup, initial_state(setup, t0, y0, (t1 - t0) * INITIAL_STEP, max_onsets, broken.index >= 0), broken
 
 
 @eqx.filter_jit
