@@ -9,8 +9,9 @@ jaxbearing computes in float64 and does not switch JAX's global mode for you: ca
 ``jax.config.update("jax_enable_x64", True)`` first (building a model in float32 raises).
 Importing jaxbearing makes two process-wide settings, each with an opt-out
 (`jaxbearing._process`): XLA:CPU compiles the solver's loops whole (import jaxbearing before the
-process's first JAX computation), and JAX's persistent compilation cache keeps compiled solves
-for the next process.
+process's first JAX computation; not added later), and JAX's persistent compilation cache,
+bounded in size, keeps compiled solves for the next process (docs/platforms.md lists each
+setting and its opt-out).
 """
 
 from ._process import apply_compilation_cache, apply_loop_kernels

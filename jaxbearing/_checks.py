@@ -1,27 +1,33 @@
 """Validation of physical parameters, in one place for construction and for `simulate`.
 
-Every parameter Module lists its rules once, as ``(condition_that_is_wrong, message)`` pairs
-returned by a ``violations()`` method; on top of them every floating leaf must be finite
-(`finite_leaves`). The rules are enforced twice:
+Every rule is written once, as ``(is_wrong, message, value)``: ``message`` names the parameter and
+what is allowed, ``value`` is what the error shows. Rules are made by functions that take the
+array module ``xp`` as their first argument (the builders below, each parameter Module's
+``violations(xp, named)``, `finite_leaves` for every floating leaf), and are checked twice:
 
-- at construction (``__check_init__``), as a `ValueError` that names the parameter, the value
-  and what is allowed, whenever the values are concrete (known values are checked in NumPy,
-  `namespace` and `on_host`: a check compiles no program);
+- at construction (``__check_init__``, `check_init`), with ``xp`` NumPy on the concrete values,
+  so that checking compiles nothing: the first broken rule raises a `ValueError` naming the
+  parameter by the constructor's keyword (``clearance``), its value and what is allowed
+  (`raise_first`). A Module built from traced values (inside a `jax.jit` or `jax.vmap`) is
+  checked by the solve;
 - by `jaxbearing.simulate`, because parameters also change after construction (`eqx.tree_at`,
-  sweeps, optimisers): inside the compiled solve as a result code (`RESULTS.invalid_input`, no
-  host callback, so the compiled solve can be cached), raised on the host after the call with
-  the rule's message (`raise_if_concrete`); a run given traced values (your own `jax.jit`,
-  `jax.vmap`) raises it with `eqx.error_if` around the solve when ``throw=True``.
+  sweeps, optimisers): inside the compiled solve, with ``xp`` `jax.numpy`, the rules of the
+  run (`start_rules`, parameters named by their path in the model, ``bearing.clearance``)
+  give the index of the first broken rule and its value (`first_broken`), which the solve
+  returns beside its result code (`RESULTS.invalid_input`; no host callback, so the compiled
+  solve can be cached). After the call it raises that rule's message on the host
+  (`raise_broken`), nothing evaluated again; under your own `jax.jit` or `jax.vmap` one
+  `eqx.branched_error_if` raises it (`enforce`) when ``throw=True``.
 
 The arguments of a solve (span, controller and tolerances, output times, counts, window edges)
 are checked here as well (at the end: `check_count`, `checked_span` and what follows), with the
 rules a run must meet (`start_rules`), for `simulate`, `simulate_one_loop` and `sweep` alike.
 """
-
 from __future__ import annotations
 
 import numbers
 from collections.abc import Iterable
+from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
@@ -29,7 +35,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-Violation = tuple[jax.Array, str]
+Rule = tuple[object, str, object]  # (is_wrong, message, value)
+
+
+def keyword(field: str) -> str:
+    """How a rule names a Module's field at construction: by the constructor's keyword, the
+    field's own name (``named`` of ``violations``; a solve names it by its path in the model)."""
+    return field
 
 
 def require_x64() -> None:
@@ -59,15 +71,16 @@ def as_float(value, name: str, unit: str) -> jax.Array:
     )
 
 
-def require_scalars(module, fields) -> None:
-    """A `ValueError` now for the first of ``fields`` (names of ``module``'s parameters) that is
-    not one number: a value set after construction (`eqx.tree_at`) is not converted, and shapes
-    are known at trace time, so this holds under jit and vmap as well."""
+def require_scalars(module, fields, named=keyword) -> None:
+    """A `ValueError` now for the first of ``fields`` (names of ``module``'s parameters, named
+    in the message by ``named``) that is not one number: a value set after construction
+    (`eqx.tree_at`) is not converted, and shapes are known at trace time, so this holds under
+    jit and vmap as well."""
     for field in fields:
         value = getattr(module, field)
         if isinstance(value, (str, bytes, bool, np.bool_)) or value is None or np.ndim(value) != 0:
             shape = f"shape {np.shape(value)}" if hasattr(value, "shape") else repr(value)
-            raise ValueError(f"{type(module).__name__}.{field} must be one number; got {shape}.")
+            raise ValueError(f"{named(field)} must be one number; got {shape}.")
 
 
 def as_floats(*specs) -> tuple[jax.Array, ...]:
@@ -103,34 +116,73 @@ def _describe(value) -> str:
     return f"{arr.item():.6g}" if arr.size == 1 else np.array2string(arr, precision=6)
 
 
-def raise_if_concrete(violations: Iterable[tuple[object, str, object]]) -> None:
-    """Raise a `ValueError` for the first violated rule whose inputs are concrete.
-
-    ``violations`` holds ``(is_wrong, message, value)``; traced entries are skipped here and
-    enforced later by `enforce`.
-    """
-    for is_wrong, message, value in violations:
-        if is_concrete(is_wrong, value) and bool(np.any(np.asarray(is_wrong))):
+def raise_first(rules: Iterable[Rule]) -> None:
+    """Raise a `ValueError` for the first broken rule of ``rules``, evaluated in NumPy."""
+    for is_wrong, message, value in rules:
+        if np.any(is_wrong):
             raise ValueError(f"{message}; got {_describe(value)}.")
 
 
-def any_violated(violations: Iterable[tuple[object, str, object]]) -> jax.Array:
-    """Whether any rule of ``violations`` is violated: a boolean scalar, computed under jit
-    without a host callback (`simulate` turns it into a result code)."""
-    wrong = [jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in violations]
-    return jnp.any(jnp.stack(wrong)) if wrong else jnp.zeros((), bool)
+def check(rules_of, *values) -> None:
+    """`raise_first` of ``rules_of(np, *values)`` where every one of ``values`` is concrete (in
+    NumPy: compiles nothing); nothing where one is traced (then the caller's program runs on)."""
+    if is_concrete(*jax.tree_util.tree_leaves(values)):
+        raise_first(rules_of(np, *(np.asarray(v) for v in values)))
 
 
-def enforce(x, violations: Iterable[tuple[object, str, object]]):
-    """Attach every rule to ``x`` (usable under jit, vmap and grad): the first violated rule
-    raises its message. One `eqx.branched_error_if` for all rules: one `eqx.error_if` per rule
-    would be traced once per rule."""
-    violations = list(violations)
-    if not violations:
+def first_broken(rules: Iterable[Rule]) -> tuple[jax.Array, jax.Array]:
+    """In `jax.numpy`, under jit: the index of the first broken rule of ``rules`` (-1 where
+    none is) and one number of its value: the first element that breaks the rule, or the
+    value's first element where the rule is one condition on all of them (the output times)."""
+    rules = list(rules)
+    if not rules:
+        return jnp.asarray(-1, jnp.int32), jnp.asarray(jnp.nan)
+    wrong = jnp.stack([jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in rules])
+    index = jnp.where(jnp.any(wrong), jnp.argmax(wrong), -1).astype(jnp.int32)
+    values = jnp.stack([_culprit(is_wrong, value) for is_wrong, _, value in rules])
+    return index, values[jnp.maximum(index, 0)]
+
+
+def _culprit(is_wrong, value) -> jax.Array:
+    value = jnp.ravel(jnp.asarray(value, jnp.float64))
+    wrong = jnp.ravel(jnp.asarray(is_wrong))
+    return value[jnp.argmax(wrong)] if wrong.shape == value.shape else value[0]
+
+
+def messages(rules: Iterable[Rule]) -> tuple[str, ...]:
+    """The messages of ``rules``, in order: what `first_broken`'s index points into."""
+    return tuple(message for _, message, _ in rules)
+
+
+class Broken(NamedTuple):
+    """What a compiled solve returns of its rules (`start_rules`): the index of the first
+    broken one (-1: none) and its value (`first_broken`), and every rule's message (static)."""
+
+    index: jax.Array
+    value: jax.Array
+    messages: tuple[str, ...]
+
+
+def broken(rules: Iterable[Rule]) -> Broken:
+    """`Broken` of ``rules``, evaluated in `jax.numpy` (inside the compiled solve)."""
+    rules = list(rules)
+    return Broken(*first_broken(rules), messages(rules))
+
+
+def raise_broken(b: Broken) -> None:
+    """On the host, after a solve: the `ValueError` of the broken rule of ``b``, with its value;
+    nothing where no rule is broken."""
+    if int(b.index) >= 0:
+        raise ValueError(f"{b.messages[int(b.index)]}; got {_describe(b.value)}.")
+
+
+def enforce(x, b: Broken):
+    """``x`` with the broken rule of ``b`` (traced) raised at run time: one
+    `eqx.branched_error_if` for all rules (one `eqx.error_if` per rule would be traced once
+    per rule)."""
+    if not b.messages:
         return x
-    wrong = jnp.stack([jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in violations])
-    messages = [message for _, message, _ in violations]
-    return eqx.branched_error_if(x, jnp.any(wrong), jnp.argmax(wrong), messages)
+    return eqx.branched_error_if(x, b.index >= 0, jnp.maximum(b.index, 0), b.messages)
 
 
 def to_float64(value) -> jax.Array:
@@ -145,84 +197,77 @@ def to_float64(value) -> jax.Array:
     return jax.device_put(np.asarray(value, np.float64))
 
 
-def namespace(*xs):
-    """The array namespace for rules on ``xs``: NumPy when every one is concrete (a check of
-    known values then compiles nothing), `jax.numpy` when any is traced (the check runs in the
-    caller's program)."""
-    return np if is_concrete(*xs) else jnp
-
-
 def on_host(tree):
     """``tree`` with every concrete JAX array as a NumPy array (traced leaves stay), so that
-    its rules (``violations()``) evaluate in NumPy: see `namespace`."""
+    its rules (``violations(np)``) evaluate in NumPy and compile nothing."""
     def convert(x):
         return np.asarray(x) if isinstance(x, jax.Array) and is_concrete(x) else x
 
     return jax.tree_util.tree_map(convert, tree)
 
 
-def finite_leaves(module, prefix: str = "") -> list:
-    """One rule per floating array leaf of ``module``: it must be finite. Each is named by its
-    dotted path (``"forces.0.bearing.stiffness"``, as in `jaxbearing.paths`) after ``prefix``.
-    A NaN passes every comparison rule, and a NaN or infinite parameter (an optimiser's step,
-    `eqx.tree_at`) would have the solver shrink its step until ``max_steps``."""
+def finite_leaves(xp, module, named=keyword) -> list:
+    """One rule per floating array leaf of ``module``: it must be finite. Each is named by
+    ``named`` of its dotted path in ``module`` (``"bearing.stiffness"``, as `jaxbearing.paths`
+    reads it). A NaN passes every comparison rule, and a NaN or infinite parameter (an
+    optimiser's step, `eqx.tree_at`) would have the solver shrink its step until ``max_steps``."""
     rules = []
     for path, leaf in jax.tree_util.tree_leaves_with_path(module):
         if eqx.is_inexact_array(leaf) or isinstance(leaf, (float, np.floating)):  # tree_at may set floats
-            name = prefix + jax.tree_util.keystr(path, simple=True, separator=".")
-            rules.append(finite(name, leaf))
+            name = named(jax.tree_util.keystr(path, simple=True, separator="."))
+            rules.append(finite(xp, name, leaf))
     return rules
 
 
 def check_init(module) -> None:
-    """The construction check of a parameter Module: every floating leaf finite (named
-    ``Class.field``), then the Module's own ``violations()``."""
-    host = on_host(module)
-    raise_if_concrete(finite_leaves(host, f"{type(module).__name__}.") + host.violations())
+    """The construction check of a parameter Module whose values are concrete, in NumPy: every
+    floating leaf finite, then the Module's own ``violations(np)``, named by the constructor's
+    keywords. A Module built from traced values is checked by the solve (`start_rules`)."""
+    if is_concrete(*jax.tree_util.tree_leaves(module)):
+        host = on_host(module)
+        raise_first(finite_leaves(np, host) + host.violations(np))
 
 
-def finite(name: str, value):
+def finite(xp, name: str, value):
     """The rule that ``value`` is finite (a NaN passes every comparison rule)."""
-    return (~namespace(value).isfinite(value), f"{name} must be finite (not NaN or infinite)", value)
+    return (~xp.isfinite(value), f"{name} must be finite (not NaN or infinite)", value)
 
 
-def positive(name: str, value, unit: str):
-    return (namespace(value).asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
+def positive(xp, name: str, value, unit: str):
+    return (xp.asarray(value) <= 0, f"{name} must be positive [{unit}]", value)
 
 
-def non_negative(name: str, value, unit: str):
-    return (namespace(value).asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
+def non_negative(xp, name: str, value, unit: str):
+    return (xp.asarray(value) < 0, f"{name} must be zero or positive [{unit}]", value)
 
 
-def in_open_interval(name: str, value, low: float, high: float):
-    v = namespace(value).asarray(value)
+def in_open_interval(xp, name: str, value, low: float, high: float):
+    v = xp.asarray(value)
     return ((v <= low) | (v >= high), f"{name} must lie in ({low}, {high})", value)
 
 
-def in_half_open_interval(name: str, value, low: float, high: float):
-    v = namespace(value).asarray(value)
+def in_half_open_interval(xp, name: str, value, low: float, high: float):
+    v = xp.asarray(value)
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
 
 
-def material(youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisson_name="poisson_ratio"):
+def material(xp, youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisson_name="poisson_ratio"):
     """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5), named as given."""
     return [
-        positive(youngs_name, youngs_modulus, "Pa"),
-        in_open_interval(poisson_name, poisson_ratio, 0.0, 0.5),
+        positive(xp, youngs_name, youngs_modulus, "Pa"),
+        in_open_interval(xp, poisson_name, poisson_ratio, 0.0, 0.5),
     ]
 
 
-def ball_count(n_balls):
+def ball_count(xp, n_balls):
     """A bearing has an integer number of balls, at least 3."""
-    xp = namespace(n_balls)
     z = xp.asarray(n_balls)
     return ((z < 3) | (z != xp.round(z)), "n_balls must be an integer of at least 3", n_balls)
 
 
-def balls_fit(n_balls, ball_diameter, pitch_diameter):
+def balls_fit(xp, n_balls, ball_diameter, pitch_diameter):
     """The balls fit around the pitch circle without overlapping: neighbours' centres lie
     d_m sin(pi/Z) apart, so D < d_m sin(pi/Z)."""
-    xp = namespace(n_balls, ball_diameter, pitch_diameter)
     z, d, dm = (xp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
     return (
         d >= dm * xp.sin(xp.pi / xp.maximum(z, 1.0)),
@@ -234,9 +279,8 @@ def balls_fit(n_balls, ball_diameter, pitch_diameter):
     )
 
 
-def pitch_exceeds_ball(pitch_diameter, ball_diameter):
+def pitch_exceeds_ball(xp, pitch_diameter, ball_diameter):
     """The pitch circle is wider than a ball: d_m > D [m]."""
-    xp = namespace(pitch_diameter, ball_diameter)
     return (
         xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
         "pitch_diameter must exceed ball_diameter [m]",
@@ -244,9 +288,8 @@ def pitch_exceeds_ball(pitch_diameter, ball_diameter):
     )
 
 
-def contact_angle_rule(contact_angle):
+def contact_angle_rule(xp, contact_angle):
     """A bearing's contact angle alpha lies in [0, pi/2) [rad]."""
-    xp = namespace(contact_angle)
     alpha = xp.asarray(contact_angle)
     return ((alpha < 0.0) | (alpha >= 0.5 * xp.pi), "contact_angle must lie in [0, pi/2) [rad]", contact_angle)
 
@@ -407,9 +450,10 @@ def window_stops(window_edges, window_start=None, more=()) -> jax.Array:
 
 
 def start_rules(model, t0, t1, ts=None) -> list:
-    """Every rule a run must meet (as `any_violated` and `enforce` take them): the model's at
-    ``t0``, t1 > t0, and the output times ``ts`` finite, increasing and within [t0, t1]."""
-    rules = model.violations(t0)
+    """Every rule a run must meet, in `jax.numpy` (inside the compiled solve: `first_broken`):
+    the model's at ``t0`` (named by their paths in the model), t1 > t0, and the output times
+    ``ts`` finite, increasing and within [t0, t1]."""
+    rules = model.violations(jnp, t0)
     rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
     if ts is not None:
         rules.append(

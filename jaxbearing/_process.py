@@ -9,26 +9,30 @@
    faster on a CPU (docs/performance.md gives the figure and the command that measures it);
    results agree with and without it to the solver's tolerance. The limit is an entry of XLA's
    ``xla_backend_extra_options``, which XLA reads from the ``XLA_FLAGS`` environment variable
-   once, when JAX starts its backends (at the first computation): it takes effect when
-   jaxbearing is imported before the process's first JAX computation (``import jax;
-   jax.config.update(...)`` before it is fine: that starts no backend); imported later, it
-   changes nothing and results are the same, only slower. Other backends ignore it. A
-   ``XLA_FLAGS`` that already sets ``xla_backend_extra_options`` is left as it is.
-   Opt-out: ``JAXBEARING_KEEP_XLA_FLAGS=1``.
+   once, when JAX starts its backends (at the first computation): it is added when jaxbearing
+   is imported before the process's first JAX computation (``import jax;
+   jax.config.update(...)`` before it is fine: that starts no backend), and not at all when
+   imported later, where it could change nothing (`backends_started`); results are the same,
+   only slower. Being in the environment, it is inherited by the processes this one starts.
+   Other backends ignore it. A ``XLA_FLAGS`` that already sets ``xla_backend_extra_options``
+   is left as it is. Opt-out: ``JAXBEARING_KEEP_XLA_FLAGS=1``.
 
-2. JAX's persistent compilation cache, in `cache_dir` (``$XDG_CACHE_HOME/jaxbearing/jax``,
-   by default ``~/.cache/jaxbearing/jax``): a process that meets a solve compiled before on this
+2. JAX's persistent compilation cache, in `cache_dir` (``$XDG_CACHE_HOME/jaxbearing/jax-lru``,
+   by default ``~/.cache/jaxbearing/jax-lru``): a process that meets a solve compiled before on this
    machine loads it instead of compiling it again (the compiled solve holds no host callback,
    which the cache would refuse). The cache keeps every program, however quickly it compiled
-   (``jax_persistent_cache_min_compile_time_secs`` 0 unless the environment sets
-   ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS``; JAX's default keeps only those that took a
-   second or more): the main job's summaries, the stiffness laws and the other small programs
-   a run meets would otherwise compile again in every process, a good part of a second run's
-   time. Only where the process has not chosen a cache folder itself
-   (``jax_compilation_cache_dir``, ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps
-   the user's settings. Wherever the cache is, its folder also holds the solves that
-   `jaxbearing._stored` keeps traced and lowered (``jaxbearing-solves``), which spare a
-   later process the tracing too. Opt-out of both: ``JAXBEARING_NO_COMPILATION_CACHE=1``.
+   (``jax_persistent_cache_min_compile_time_secs`` 0 unless the process set a threshold itself:
+   by ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS``, or by ``jax.config.update`` before the
+   import to a value other than JAX's default, `JAX_MIN_COMPILE_TIME`, which keeps only the
+   programs that took a second or more): the main job's summaries, the stiffness laws and the
+   other small programs a run meets would otherwise compile again in every process, a good part
+   of a second run's time. The cache is bounded (``jax_compilation_cache_max_size`` `CACHE_MAX_SIZE`, unless the
+   process set a size itself, by ``jax.config.update`` or ``JAX_COMPILATION_CACHE_MAX_SIZE``):
+   beyond it JAX deletes the least recently used programs, which needs the ``filelock``
+   package (a dependency of jaxbearing; without it JAX warns and caches nothing). Only where
+   the process has not chosen a cache folder itself (``jax_compilation_cache_dir``,
+   ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps the user's settings. Opt-out:
+   ``JAXBEARING_NO_COMPILATION_CACHE=1``; an unbounded cache: ``JAX_COMPILATION_CACHE_MAX_SIZE=-1``.
 """
 
 from __future__ import annotations
@@ -41,6 +45,10 @@ import jax
 LOOP_KERNELS_FLAG = "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1000000000"
 OPT_OUT = "JAXBEARING_KEEP_XLA_FLAGS"
 CACHE_OPT_OUT = "JAXBEARING_NO_COMPILATION_CACHE"
+CACHE_MAX_SIZE = 2 * 1024**3  # [bytes] the cache's bound (the paper's solve takes about 0.6 MB)
+JAX_MIN_COMPILE_TIME = 1.0  # [s] JAX's default jax_persistent_cache_min_compile_time_secs
+# a public option JAX refuses to change once its backends run (`backends_started`)
+_PROBE = "jax_cpu_get_local_topology_timeout_minutes"
 
 
 def _true(name: str) -> bool:
@@ -53,17 +61,34 @@ def apply_loop_kernels() -> bool:
     flags = os.environ.get("XLA_FLAGS", "")
     if LOOP_KERNELS_FLAG in flags.split():
         return True
-    if _true(OPT_OUT) or "--xla_backend_extra_options=" in flags:
+    if _true(OPT_OUT) or "--xla_backend_extra_options=" in flags or backends_started():
         return False
     os.environ["XLA_FLAGS"] = f"{flags} {LOOP_KERNELS_FLAG}".strip()
     return True
 
 
+def backends_started() -> bool:
+    """Whether JAX has started its backends (the process's first computation), after which
+    ``XLA_FLAGS`` is read no more. JAX has no function that says so (jax-ml/jax#23320), but it
+    refuses to change `_PROBE` (a timeout of multi-process CPU runs) once they run: the probe sets
+    it to another value and back."""
+    value = getattr(jax.config, _PROBE)
+    try:
+        jax.config.update(_PROBE, value + 1)
+    except RuntimeError:
+        return True
+    jax.config.update(_PROBE, value)
+    return False
+
+
 def cache_dir() -> Path:
-    """The folder of jaxbearing's persistent compilation cache: ``$XDG_CACHE_HOME/jaxbearing/jax``
-    (``~/.cache/jaxbearing/jax`` where XDG_CACHE_HOME is unset)."""
+    """The folder of jaxbearing's persistent compilation cache: ``$XDG_CACHE_HOME/jaxbearing/jax-lru``
+    (``~/.cache/jaxbearing/jax-lru`` where XDG_CACHE_HOME is unset). Not the ``jax`` folder
+    beside it, which jaxbearing's unbounded cache wrote before: a bounded cache reads each
+    entry's access time at every write, and an entry written unbounded has none, which fails
+    every write (jax-ml/jax#39880, fixed in later JAX releases)."""
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "jaxbearing" / "jax"
+    return Path(base) / "jaxbearing" / "jax-lru"
 
 
 def apply_compilation_cache() -> Path | None:
@@ -75,6 +100,10 @@ def apply_compilation_cache() -> Path | None:
     if chosen:
         return Path(chosen)
     jax.config.update("jax_compilation_cache_dir", str(cache_dir()))
-    if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
+    threshold = jax.config.jax_persistent_cache_min_compile_time_secs
+    if threshold == JAX_MIN_COMPILE_TIME and "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    unbounded = jax.config.jax_compilation_cache_max_size == -1  # JAX's default
+    if unbounded and "JAX_COMPILATION_CACHE_MAX_SIZE" not in os.environ:
+        jax.config.update("jax_compilation_cache_max_size", CACHE_MAX_SIZE)
     return cache_dir()

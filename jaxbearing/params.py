@@ -2,7 +2,8 @@
 
 Numbers are float64 array leaves, so `eqx.tree_at`, `jax.vmap` and `jax.grad` see them; choices
 of model (cage mode, force variant, exponent) are static fields. Rules on the values live in each
-Module's ``violations()`` and are checked at construction and again inside `jaxbearing.simulate`.
+Module's ``violations(xp, named)`` (`jaxbearing._checks`) and are checked at construction and
+again inside `jaxbearing.simulate`.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from typing import Literal
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
+import numpy as np
 
 from . import _checks
 from .laws import hertz
@@ -97,16 +100,12 @@ class BallBearing(eqx.Module):
             raise ValueError(
                 f"exponent must be a finite number above 1 (3/2 balls, 10/9 rollers); got {exponent!r}."
             )
-        self.clearance = _checks.as_float(clearance, "bearing clearance", "m")
-        self.stiffness = _checks.as_float(stiffness, "bearing stiffness", "N/m^n")
-        self.damping = _checks.as_float(damping, "bearing damping", "N s/m")
-        self.inner_race_diameter = _checks.as_float(
-            inner_race_diameter, "inner raceway diameter", "m"
-        )
-        self.outer_race_diameter = _checks.as_float(
-            outer_race_diameter, "outer raceway diameter", "m"
-        )
-        self.damping_ramp = _checks.as_float(damping_ramp, "damping ramp", "m")
+        self.clearance = _checks.as_float(clearance, "clearance", "m")
+        self.stiffness = _checks.as_float(stiffness, "stiffness", "N/m^n")
+        self.damping = _checks.as_float(damping, "damping", "N s/m")
+        self.inner_race_diameter = _checks.as_float(inner_race_diameter, "inner_race_diameter", "m")
+        self.outer_race_diameter = _checks.as_float(outer_race_diameter, "outer_race_diameter", "m")
+        self.damping_ramp = _checks.as_float(damping_ramp, "damping_ramp", "m")
         self.n_balls = int(n_balls)
         self.exponent = float(exponent)
         self.cage = cage
@@ -142,10 +141,11 @@ class BallBearing(eqx.Module):
         _, _, k_ball = hertz.bearing_stiffness(
             ball_diameter, pitch_diameter, groove_inner, groove_outer, youngs_modulus, poisson_ratio
         )
-        _checks.raise_if_concrete(
-            [_checks.ball_count(n_balls), _checks.balls_fit(n_balls, ball_diameter, pitch_diameter)]
+        _checks.check(
+            lambda xp, z, d, dm: [_checks.ball_count(xp, z), _checks.balls_fit(xp, z, d, dm)],
+            n_balls, ball_diameter, pitch_diameter,
         )
-        xp = _checks.namespace(pitch_diameter, ball_diameter)
+        xp = np if _checks.is_concrete(pitch_diameter, ball_diameter) else jnp  # NumPy compiles nothing
         dm, d = xp.asarray(pitch_diameter, xp.float64), xp.asarray(ball_diameter, xp.float64)
         return cls(
             clearance=clearance,
@@ -172,26 +172,30 @@ class BallBearing(eqx.Module):
         """D = (d_o - d_i) / 2 [m]."""
         return 0.5 * (self.outer_race_diameter - self.inner_race_diameter)
 
-    def violations(self):
+    def violations(self, xp, named=_checks.keyword):
+        """Its rules (`jaxbearing._checks`) in the array module ``xp``, each field named by
+        ``named``."""
         _checks.require_scalars(
-            self, ("clearance", "stiffness", "damping", "inner_race_diameter", "outer_race_diameter", "damping_ramp")
+            self, ("clearance", "stiffness", "damping", "inner_race_diameter", "outer_race_diameter", "damping_ramp"),
+            named,
         )
+        clearance, inner, outer = (xp.asarray(v) for v in (self.clearance, self.inner_race_diameter, self.outer_race_diameter))
         return [
-            _checks.non_negative("bearing clearance", self.clearance, "m"),
-            _checks.positive("bearing stiffness", self.stiffness, "N/m^n"),
-            _checks.non_negative("bearing damping", self.damping, "N s/m"),
-            _checks.positive("inner raceway diameter", self.inner_race_diameter, "m"),
+            _checks.non_negative(xp, named("clearance"), clearance, "m"),
+            _checks.positive(xp, named("stiffness"), self.stiffness, "N/m^n"),
+            _checks.non_negative(xp, named("damping"), self.damping, "N s/m"),
+            _checks.positive(xp, named("inner_race_diameter"), inner, "m"),
             (
-                self.outer_race_diameter <= self.inner_race_diameter,
-                "outer raceway diameter must exceed the inner raceway diameter [m]",
-                self.outer_race_diameter,
+                outer <= inner,
+                f"{named('outer_race_diameter')} must exceed {named('inner_race_diameter')} [m]",
+                outer,
             ),
-            _checks.positive("damping ramp", self.damping_ramp, "m"),
+            _checks.positive(xp, named("damping_ramp"), self.damping_ramp, "m"),
             (
-                self.clearance > MAX_CLEARANCE_FRACTION * self.ball_diameter,
-                f"bearing clearance must be at most {MAX_CLEARANCE_FRACTION} of the ball diameter "
+                clearance > MAX_CLEARANCE_FRACTION * xp.asarray(self.ball_diameter),
+                f"{named('clearance')} must be at most {MAX_CLEARANCE_FRACTION} of the ball diameter "
                 "(d_o - d_i) / 2, far above any catalogue clearance [m]",
-                self.clearance,
+                clearance,
             ),
         ]
 
@@ -217,9 +221,9 @@ class Impact(eqx.Module):
     friction_v1: jax.Array
 
     def __init__(self, stiffness, restitution, friction=0.0, friction_v0=1e-4, friction_v1=1e-3):
-        self.stiffness = _checks.as_float(stiffness, "impact stiffness", "N/m^1.5")
+        self.stiffness = _checks.as_float(stiffness, "stiffness", "N/m^1.5")
         self.restitution = _checks.as_float(restitution, "restitution", "-")
-        self.friction = _checks.as_float(friction, "friction coefficient", "-")
+        self.friction = _checks.as_float(friction, "friction", "-")
         self.friction_v0 = _checks.as_float(friction_v0, "friction_v0", "m/s")
         self.friction_v1 = _checks.as_float(friction_v1, "friction_v1", "m/s")
 
@@ -229,22 +233,21 @@ class Impact(eqx.Module):
     ) -> Impact:
         """Stiffness of two spheres (or circular arcs) of radii R_j, R_k [m] of one material:
         Young's modulus E [Pa] (> 0) and Poisson's ratio nu (in (0, 0.5))."""
-        _checks.raise_if_concrete(_checks.material(youngs_modulus, poisson_ratio))
+        _checks.check(_checks.material, youngs_modulus, poisson_ratio)
         k = hertz.impact_stiffness(radius_j, radius_k, youngs_modulus, poisson_ratio)
         return cls(stiffness=k, restitution=restitution, **kwargs)
 
-    def violations(self):
-        _checks.require_scalars(self, ("stiffness", "restitution", "friction", "friction_v0", "friction_v1"))
+    def violations(self, xp, named=_checks.keyword):
+        """Its rules (`jaxbearing._checks`) in the array module ``xp``, each field named by
+        ``named``."""
+        _checks.require_scalars(self, ("stiffness", "restitution", "friction", "friction_v0", "friction_v1"), named)
+        v0, v1 = xp.asarray(self.friction_v0), xp.asarray(self.friction_v1)
         return [
-            _checks.positive("impact stiffness", self.stiffness, "N/m^1.5"),
-            _checks.in_half_open_interval("restitution", self.restitution, 0.0, 1.0),
-            _checks.non_negative("friction coefficient", self.friction, "-"),
-            _checks.non_negative("friction_v0", self.friction_v0, "m/s"),
-            (
-                self.friction_v1 <= self.friction_v0,
-                "friction_v1 must exceed friction_v0 [m/s]",
-                self.friction_v1,
-            ),
+            _checks.positive(xp, named("stiffness"), self.stiffness, "N/m^1.5"),
+            _checks.in_half_open_interval(xp, named("restitution"), self.restitution, 0.0, 1.0),
+            _checks.non_negative(xp, named("friction"), self.friction, "-"),
+            _checks.non_negative(xp, named("friction_v0"), v0, "m/s"),
+            (v1 <= v0, f"{named('friction_v1')} must exceed {named('friction_v0')} [m/s]", v1),
         ]
 
     def __check_init__(self):

@@ -51,20 +51,32 @@ def _key(entry) -> str:
 
 
 def parameter_paths(model) -> list[str]:
-    """Every path of ``model``'s numeric parameters (its array leaves), in model order, with
-    the bearing joints' parameters as ``bearings.i.…`` and the contacts' as
-    ``contacts.j.…``."""
-    bearings = {id(b): i for i, b in enumerate(getattr(model, "bearings", ()))}
-    forces = getattr(model, "forces", ())
-    paths = []
-    for keys, leaf in jax.tree_util.tree_flatten_with_path(model)[0]:
-        if not eqx.is_array(leaf):
-            continue
-        parts = [_key(k) for k in keys]
-        if parts[:1] == ["forces"] and id(forces[int(parts[1])]) in bearings:
-            parts[:2] = ["bearings", str(bearings[id(forces[int(parts[1])])])]
-        paths.append(".".join(parts))
-    return paths
+    """Every path of ``model``'s numeric parameters (its array leaves), in model order, as a
+    user types it (`typed`)."""
+    return [
+        typed(model, ".".join(_key(k) for k in keys))
+        for keys, leaf in jax.tree_util.tree_flatten_with_path(model)[0]
+        if eqx.is_array(leaf)
+    ]
+
+
+def typed(model, path: str) -> str:
+    """The path a user types for the parameter at ``path``, a model's tree path
+    (``"forces.0.bearing.clearance"``): the model's bearing joints through ``bearings``
+    (``"bearings.1.bearing.clearance"``), the parameters of its only bearing through
+    ``bearing`` (``"bearing.clearance"``) and of its only contact through ``impact``
+    (``"impact.restitution"``); any other path as it is. Each reads the same leaf with `get`."""
+    parts = path.split(".")
+    if len(parts) > 2 and parts[0] == "forces":
+        i, bearings = int(parts[1]), model.bearings
+        is_bearing = [any(f is joint for joint in bearings) for f in model.forces]
+        if is_bearing[i]:
+            if len(bearings) == 1 and parts[2] == "bearing":
+                return ".".join(parts[2:])
+            return ".".join(["bearings", str(sum(is_bearing[:i]))] + parts[2:])
+    if len(parts) > 2 and parts[0] == "contacts" and len(model.contacts) == 1 and parts[2] == "impact":
+        return ".".join(parts[2:])
+    return path
 
 
 def replace(model, values: Mapping[str, object]):

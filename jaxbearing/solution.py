@@ -708,15 +708,15 @@ def warn_if_drifting(sol: Solution, model) -> None:
         )
 
 
-def raise_on_failure(sol: Solution, t1, rules, root_steps: int) -> Solution:
+def raise_on_failure(sol: Solution, t1, broken: _checks.Broken, root_steps: int) -> Solution:
     """``sol``, or the error its result code stands for: a `SimulationError` saying when and what
     to change (``root_steps``: the steps the solve's root finder has to locate an event); for
-    `RESULTS.invalid_input` the broken rule of ``rules()`` (`_checks.start_rules`), a
-    `ValueError` where the values are concrete. Under your own transformations (traced results)
-    the same messages come from `eqx.error_if` checks around the solve."""
+    `RESULTS.invalid_input` the `ValueError` of the broken rule that the solve returned
+    (``broken``), where the values are concrete. Under your own transformations (traced
+    results) the same messages come from `eqx.error_if` checks after the solve."""
     failed = sol.result != RESULTS.successful
-    if is_concrete(failed) and bool(sol.result == RESULTS.invalid_input):
-        _checks.raise_if_concrete(rules())
+    if is_concrete(failed, broken.index) and bool(sol.result == RESULTS.invalid_input):
+        _checks.raise_broken(broken)
     if is_concrete(failed, sol.t_final):
         if bool(failed):
             if bool(sol.result == RESULTS.contact_overlap):
@@ -736,5 +736,5 @@ def raise_on_failure(sol: Solution, t1, rules, root_steps: int) -> Solution:
             )
         return sol
     # under jit/vmap/grad: the broken rule's message, else the failing member's (`RESULTS`)
-    sol = _checks.enforce(sol, rules())
+    sol = _checks.enforce(sol, broken)
     return sol.result.error_if(sol, failed)

@@ -2,9 +2,8 @@
 output times compile nothing new, nor does a Python float put into a model), model checks of
 known values in NumPy (building a model compiles only its stiffness laws), XLA:CPU's loops
 compiled whole by default (`jaxbearing._process`, with its opt-out), the persistent compilation
-cache on by default, and no private or compiler-steering code in the package. That the compiled
-solve holds no host callback, so that JAX's cache stores it, tests/test_stored.py checks in its
-first process."""
+cache on by default (a second process compiles no solve met before), and no private or
+compiler-steering code in the package."""
 
 import dataclasses
 import json
@@ -131,6 +130,39 @@ def test_loops_compile_whole_by_default_with_an_opt_out():
     assert _fresh("on", XLA_FLAGS=own)["flags"] == own
 
 
+_IMPORT = """
+import json, os, sys
+import jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np
+if sys.argv[1] == "late":
+    jax.device_put(np.ones(2)) + 1.0  # the process's first computation: JAX starts its backends
+import jaxbearing
+from jaxbearing import _process
+print(json.dumps([_process.backends_started(), os.environ.get("XLA_FLAGS", "")]))
+"""
+
+
+def test_the_loop_flag_is_added_only_before_the_first_computation():
+    """XLA reads XLA_FLAGS when JAX starts its backends: imported before the process's first
+    computation, jaxbearing adds its loop flag (and importing it starts no backend); imported
+    after it, the flag could change nothing and is not added (a process started from this one
+    would inherit it). `backends_started` tells the two apart and leaves its probe as it was."""
+    env = {k: v for k, v in os.environ.items() if k not in ("XLA_FLAGS", _process.OPT_OUT)}
+
+    def run(when):
+        done = subprocess.run([sys.executable, "-c", _IMPORT, when], env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    assert run("early") == [False, _process.LOOP_KERNELS_FLAG]
+    assert run("late") == [True, ""]
+    probe = getattr(jax.config, _process._PROBE)
+    jnp.ones(2) + 1.0  # this process has computed
+    assert _process.backends_started()
+    assert getattr(jax.config, _process._PROBE) == probe  # left as it was
+
+
 _SECOND_PROCESS = """
 import json
 import equinox as eqx
@@ -182,6 +214,45 @@ def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path, ow
     assert second["raised"].startswith("The simulation stopped at t = "), second
 
 
+_SOLVE_TWICE = """
+import json
+import jax
+jax.config.update("jax_enable_x64", True)
+import jaxbearing as jb
+counts = {"compiles": 0, "cache_hits": 0}
+def count(event, duration=None, **kwargs):
+    if event == "/jax/core/compile/backend_compile_duration":  # every program compiled or loaded
+        counts["compiles"] += 1
+    if event == "/jax/compilation_cache/cache_hits":
+        counts["cache_hits"] += 1
+jax.monitoring.register_event_duration_secs_listener(count)
+jax.monitoring.register_event_listener(count)
+sol = jb.simulate(jb.cases.rotor(jb.cases.skf98205()), 0.01, jax.numpy.linspace(0.0, 0.01, 5))
+cached = sorted(p.name.split("-")[0] for p in __import__("pathlib").Path(jax.config.jax_compilation_cache_dir).iterdir())
+print(json.dumps({**counts, "q": sol.q.tolist(), "cached": cached}))
+"""
+
+
+def test_a_second_process_compiles_nothing_for_the_same_solve(tmp_path, own_cache_env):
+    """The compiled solve holds no host callback (checks and failures come back as result
+    codes; JAX's cache refuses a program with a callback): the first process writes it to the
+    cache that importing jaxbearing turns on, and the next process, tracing it again, loads it
+    and every small program around it, and compiles none. One compiled program with the same
+    inputs: the positions agree to rounding (loaded, not recompiled)."""
+    env = own_cache_env(XDG_CACHE_HOME=str(tmp_path))
+
+    def run():
+        done = subprocess.run([sys.executable, "-c", _SOLVE_TWICE], env=env, capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    first = run()
+    assert first["compiles"] > first["cache_hits"] and "jit__simulate" in first["cached"], first
+    second = run()
+    assert second["compiles"] == second["cache_hits"] > 0, second  # every program from the cache
+    np.testing.assert_allclose(second["q"], first["q"], rtol=1e-13, atol=0)
+
+
 _BUILT = """
 import json
 import jax
@@ -226,22 +297,24 @@ import json, sys
 from pathlib import Path
 import jax
 jax.config.update("jax_enable_x64", True)
+if "own-threshold" in sys.argv:
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 5.0)
 import jaxbearing
-if sys.argv[1:] == ["build"]:
+if "build" in sys.argv:
     jaxbearing.cases.xu2014()  # compiles the two stiffness laws, each in well under a second
 folder = jax.config.jax_compilation_cache_dir
 stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
-solves = jaxbearing._stored.folder()
-print(json.dumps([folder, jax.config.jax_persistent_cache_min_compile_time_secs, stored, solves and str(solves)]))
+config = jax.config
+print(json.dumps([folder, config.jax_persistent_cache_min_compile_time_secs, stored, config.jax_compilation_cache_max_size]))
 """
 
 
 def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cache_env):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the stiffness laws of a model, compiled
-    in a fraction of a second, are stored), unless the process chose a folder or a threshold
-    itself or opts out; the stored solves are kept in the cache's folder, wherever it is, and
-    not at all with the opt-out."""
+    in a fraction of a second, are stored), bounded in size (JAX then needs `filelock`, else it
+    stores nothing), unless the process chose a folder, a threshold or a size itself or opts
+    out."""
 
     def cache(*args, **env):
         done = subprocess.run(
@@ -250,11 +323,13 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cac
         assert done.returncode == 0, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])
 
-    folder, threshold, stored, solves = cache("build", XDG_CACHE_HOME=str(tmp_path))
-    assert (folder, threshold) == (str(tmp_path / "jaxbearing" / "jax"), 0.0)
+    folder, threshold, stored, size = cache("build", XDG_CACHE_HOME=str(tmp_path))
+    assert (folder, threshold, size) == (str(tmp_path / "jaxbearing" / "jax-lru"), 0.0, _process.CACHE_MAX_SIZE)
     assert {"jit__bearing_stiffness", "jit__impact_stiffness"} <= set(stored), stored
-    assert solves == str(tmp_path / "jaxbearing" / "jax" / "jaxbearing-solves")  # tests/test_stored.py
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="2")[1] == 2.0
+    assert cache("own-threshold", XDG_CACHE_HOME=str(tmp_path))[1] == 5.0  # set before the import
     elsewhere = cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")
-    assert elsewhere == ["/elsewhere", 1.0, [], "/elsewhere/jaxbearing-solves"]
-    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, [], None]
+    assert elsewhere == ["/elsewhere", 1.0, [], -1]
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="-1")[3] == -1
+    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="1000000")[3] == 1_000_000
+    assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, [], -1]

@@ -208,7 +208,7 @@ def test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance():
         return rotor_metric(jb.simulate(m, 0.02, ROTOR_TS, **ROTOR_KW))
 
     with pytest.warns(jb.TuneWarning, match=r"step 1 .* is not valid: its evaluation failed "
-                      r"\(bearing clearance must .*\)\. tune stopped there"):
+                      r"\(bearing\.clearance must .*\)\. tune stopped there"):
         result = jb.tune(loss, model, ["bearing.clearance"], optax.adam(1000.0), 3)
     assert result.invalid_steps == (1,)
     assert abs(result.history_values["bearing.clearance"][1]) > 1e-2

@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
-from .. import metrics as _metrics, paths
+from .. import _checks, metrics as _metrics, paths
 from ..multibody import Mechanism
 from ..solve import default_controller, default_max_segments, default_solver
 from ..solve import simulate, simulate_one_loop
@@ -278,25 +278,28 @@ def _simulate_parameters(solve="segments"):
 def check_points(model, names, points, t0=0.0):
     """Raise a ValueError for the first point whose values break a parameter rule (the initial
     state's rules at ``t0`` [s])."""
-    messages = [message for _, message, _ in model.violations(t0)]
-    flags = np.asarray(_violation_flags(model, names, jnp.asarray(points), t0))
-    bad = np.argwhere(flags)
+    index, messages = _broken_rules(model, names, jnp.asarray(points), t0)
+    index = np.asarray(index)
+    bad = np.flatnonzero(index >= 0)
     if bad.size:
-        i, r = bad[0]
+        i = bad[0]
         where = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, points[i]))
         raise ValueError(
-            f"Sweep point {i} ({where}) is invalid: {messages[r]}. "
-            f"{len(np.unique(bad[:, 0]))} of {points.shape[0]} points break a rule."
+            f"Sweep point {i} ({where}) is invalid: {messages[index[i]]}. "
+            f"{bad.size} of {points.shape[0]} points break a rule."
         )
 
 
 @eqx.filter_jit
-def _violation_flags(model, names, points, t0):
+def _broken_rules(model, names, points, t0):
+    """The index of each point's first broken rule (`_checks.first_broken`, -1: none) and the
+    rules' messages."""
+
     def one(row):
         m = paths.replace(model, dict(zip(names, row)))
-        return jnp.stack([jnp.any(jnp.asarray(w)) for w, _, _ in m.violations(t0)])
+        return _checks.first_broken(m.violations(jnp, t0))[0]
 
-    return jax.vmap(one)(points)
+    return jax.vmap(one)(points), _checks.messages(model.violations(jnp, t0))
 
 
 def default_chunk_size(platform: str | None = None, solve: str = "segments") -> int:

@@ -380,7 +380,7 @@ _HINT = "delete it to recompute that chunk, or delete the folder to start afresh
 
 def _read_chunk(path, start, stop, points, metric_names):
     try:
-        with np.load(path, allow_pickle=False) as f:
+        with np.load(path) as f:  # plain arrays: NumPy loads no Python objects by default
             data = {key: f[key] for key in _CHUNK_KEYS}
     except Exception as err:  # noqa: BLE001  (zip, npy and key errors alike)
         raise ValueError(

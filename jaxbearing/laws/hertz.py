@@ -80,11 +80,10 @@ def elliptic_integrals(m):
 # --------------------------------------------------------------------------------------------
 
 
-def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
-    xp = _checks.namespace(groove_inner, groove_outer)
+def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
     return [
-        _checks.positive("ball_diameter", ball_diameter, "m"),
-        _checks.pitch_exceeds_ball(pitch_diameter, ball_diameter),
+        _checks.positive(xp, "ball_diameter", ball_diameter, "m"),
+        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
         (
             xp.asarray(groove_inner) <= 0.5,
             "groove_inner (inner raceway groove curvature ratio f_i = r_i/D) must exceed 0.5",
@@ -95,7 +94,7 @@ def _geometry_rules(ball_diameter, pitch_diameter, groove_inner, groove_outer, c
             "groove_outer (outer raceway groove curvature ratio f_o = r_o/D) must exceed 0.5",
             groove_outer,
         ),
-        _checks.contact_angle_rule(contact_angle),
+        _checks.contact_angle_rule(xp, contact_angle),
     ]
 
 
@@ -134,12 +133,12 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
         (groove_outer, "groove_outer", "-"),
         (contact_angle, "contact_angle", "rad"),
     )
-    _checks.raise_if_concrete(_geometry_rules(*args))
+    _checks.check(_geometry_rules, *args)
     return _curvature_sums(*args)
 
 
-def _curvature_difference_rules(f):
-    v = _checks.namespace(f).asarray(f)
+def _curvature_difference_rules(xp, f):
+    v = xp.asarray(f)
     return [((v < 0.0) | (v >= 1.0), "curvature_difference F(rho) must lie in [0, 1)", f)]
 
 
@@ -156,7 +155,7 @@ def ellipticity(curvature_difference):
     function theorem. Args: curvature_difference F(rho) in [0, 1). Returns kappa [-].
     """
     f = _checks.as_float(curvature_difference, "curvature_difference", "-")
-    _checks.raise_if_concrete(_curvature_difference_rules(f))
+    _checks.check(_curvature_difference_rules, f)
     return _ellipticity(f)
 
 
@@ -173,7 +172,7 @@ def dimensionless_deflection(curvature_difference):
     F(rho) in [0, 1). Dimensionless.
     """
     f = _checks.as_float(curvature_difference, "curvature_difference", "-")
-    _checks.raise_if_concrete(_curvature_difference_rules(f))
+    _checks.check(_curvature_difference_rules, f)
     return _dimensionless_deflection(f)
 
 
@@ -203,10 +202,11 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
         _checks.as_float(youngs_modulus, "youngs_modulus", "Pa"),
         _checks.as_float(poisson_ratio, "poisson_ratio", "-"),
     )
-    _checks.raise_if_concrete(
-        [_checks.positive("sum_rho", rho, "1/m")]
-        + _curvature_difference_rules(f)
-        + _checks.material(e, nu)
+    _checks.check(
+        lambda xp, rho, f, e, nu: [_checks.positive(xp, "sum_rho", rho, "1/m")]
+        + _curvature_difference_rules(xp, f)
+        + _checks.material(xp, e, nu),
+        rho, f, e, nu,
     )
     return _race_stiffness(rho, f, e, nu)
 
@@ -223,8 +223,11 @@ def ball_stiffness(k_inner, k_outer):
     """
     ki = _checks.as_float(k_inner, "k_inner", "N/m^1.5")
     ko = _checks.as_float(k_outer, "k_outer", "N/m^1.5")
-    _checks.raise_if_concrete(
-        [_checks.positive("k_inner", ki, "N/m^1.5"), _checks.positive("k_outer", ko, "N/m^1.5")]
+    _checks.check(
+        lambda xp, ki, ko: [
+            _checks.positive(xp, "k_inner", ki, "N/m^1.5"), _checks.positive(xp, "k_outer", ko, "N/m^1.5")
+        ],
+        ki, ko,
     )
     return _ball_stiffness(ki, ko)
 
@@ -272,9 +275,10 @@ def bearing_stiffness(
         (poisson_ratio, "poisson_ratio", "-"),
         (contact_angle, "contact_angle", "rad"),
     )
-    _checks.raise_if_concrete(
-        _geometry_rules(d, dm, fi, fo, alpha)
-        + _checks.material(e, nu)
+    _checks.check(
+        lambda xp, d, dm, fi, fo, e, nu, alpha: _geometry_rules(xp, d, dm, fi, fo, alpha)
+        + _checks.material(xp, e, nu),
+        d, dm, fi, fo, e, nu, alpha,
     )
     return _bearing_stiffness(d, dm, fi, fo, e, nu, alpha)
 
@@ -305,9 +309,12 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
         (youngs_k, "youngs_k", "Pa"),
         (poisson_k, "poisson_k", "-"),
     )
-    _checks.raise_if_concrete(
-        [_checks.positive("radius_j", rj, "m"), _checks.positive("radius_k", rk, "m")]
-        + _checks.material(ej, nj, "youngs_j", "poisson_j")
-        + _checks.material(ek, nk, "youngs_k", "poisson_k")
+    _checks.check(
+        lambda xp, rj, rk, ej, nj, ek, nk: [
+            _checks.positive(xp, "radius_j", rj, "m"), _checks.positive(xp, "radius_k", rk, "m")
+        ]
+        + _checks.material(xp, ej, nj, "youngs_j", "poisson_j")
+        + _checks.material(xp, ek, nk, "youngs_k", "poisson_k"),
+        rj, rk, ej, nj, ek, nk,
     )
     return _impact_stiffness(rj, rk, ej, nj, ek, nk)

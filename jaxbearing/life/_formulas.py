@@ -64,7 +64,7 @@ def _validate_history(
         rules.append((~np.isfinite(x), f"{name} must be finite [N]", x))
         if nonneg:
             rules.append((x < 0.0, f"{name} must be zero or positive [N]", x))
-    _checks.raise_if_concrete(rules)
+    _checks.raise_first(rules)
     lo, hi = (float(b) for b in _bounds(t_min, t_max))
     inside = (t >= lo) & (t <= hi)
     pairs = inside[:-1] & inside[1:]
@@ -162,8 +162,9 @@ def rating_life(load_rating, equivalent, exponent=3.0):
     ball bearings). +inf where P = 0. Args: load_rating C [N] (> 0), equivalent P [N] (>= 0)."""
     c = _checks.as_float(load_rating, "load_rating", "N")
     p = _checks.as_float(equivalent, "equivalent", "N")
-    _checks.raise_if_concrete(
-        [_checks.positive("load_rating", c, "N"), _checks.non_negative("equivalent", p, "N")]
+    _checks.check(
+        lambda xp, c, p: [_checks.positive(xp, "load_rating", c, "N"), _checks.non_negative(xp, "equivalent", p, "N")],
+        c, p,
     )
     return _safe_ratio(c**exponent, _safe_power(p, exponent))
 
@@ -186,8 +187,9 @@ def life_hours(l10, speed_rpm):
     """L10h = 1e6 L10 / (60 n) [h] from L10 [millions of revolutions] and n [rpm] (> 0)."""
     l10 = _checks.as_float(l10, "l10", "1e6 rev")
     n = _checks.as_float(speed_rpm, "speed_rpm", "rpm")
-    _checks.raise_if_concrete(
-        [_checks.non_negative("l10", l10, "1e6 rev"), _checks.positive("speed_rpm", n, "rpm")]
+    _checks.check(
+        lambda xp, l10, n: [_checks.non_negative(xp, "l10", l10, "1e6 rev"), _checks.positive(xp, "speed_rpm", n, "rpm")],
+        l10, n,
     )
     return 1e6 * l10 / (60.0 * n)
 
@@ -274,11 +276,12 @@ def bearing_life(inner_life, outer_life):
     e = 10/9: L10 = (L_i^(-10/9) + L_o^(-10/9))^(-9/10) [same unit as the inputs]."""
     li = _checks.as_float(inner_life, "inner_life", "1e6 rev")
     lo = _checks.as_float(outer_life, "outer_life", "1e6 rev")
-    _checks.raise_if_concrete(
-        [
-            _checks.positive("inner_life", li, "1e6 rev"),
-            _checks.positive("outer_life", lo, "1e6 rev"),
-        ]
+    _checks.check(
+        lambda xp, li, lo: [
+            _checks.positive(xp, "inner_life", li, "1e6 rev"),
+            _checks.positive(xp, "outer_life", lo, "1e6 rev"),
+        ],
+        li, lo,
     )
     return _combine(_safe_ratio(1.0, li), _safe_ratio(1.0, lo))
 

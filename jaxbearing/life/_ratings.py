@@ -36,18 +36,18 @@ FC_TABLE = np.array(
 ISO_REDUCTION = 0.957
 
 
-def _finite(**values):
+def _finite(xp, **values):
     """`_checks.finite` of each named value."""
-    return [_checks.finite(name, v) for name, v in values.items()]
+    return [_checks.finite(xp, name, v) for name, v in values.items()]
 
 
-def _geometry_rules(n_balls, ball_diameter, pitch_diameter, contact_angle):
+def _geometry_rules(xp, n_balls, ball_diameter, pitch_diameter, contact_angle):
     return [
-        _checks.ball_count(n_balls),
-        _checks.positive("ball_diameter", ball_diameter, "m"),
-        _checks.pitch_exceeds_ball(pitch_diameter, ball_diameter),
-        _checks.balls_fit(n_balls, ball_diameter, pitch_diameter),
-        _checks.contact_angle_rule(contact_angle),
+        _checks.ball_count(xp, n_balls),
+        _checks.positive(xp, "ball_diameter", ball_diameter, "m"),
+        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
+        _checks.balls_fit(xp, n_balls, ball_diameter, pitch_diameter),
+        _checks.contact_angle_rule(xp, contact_angle),
     ]
 
 
@@ -67,8 +67,8 @@ def load_rating_factor(ratio):
         f_c [N / mm^1.8 in C_r = b_m f_c (i cos alpha)^0.7 Z^(2/3) D_w^1.8].
     """
     r = _checks.as_float(ratio, "ratio", "-")
-    _checks.raise_if_concrete(
-        _finite(ratio=r)
+    _checks.check(
+        lambda xp, r: _finite(xp, ratio=r)
         + [
             (
                 (r < FC_RATIO[0] - 1e-12) | (r > FC_RATIO[-1] + 1e-12),
@@ -78,7 +78,8 @@ def load_rating_factor(ratio):
                 ),
                 r,
             )
-        ]
+        ],
+        r,
     )
     return jnp.interp(r, jnp.asarray(FC_RATIO), jnp.asarray(FC_TABLE))
 
@@ -126,10 +127,13 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
         (contact_angle, "contact_angle", "rad"),
         (b_m, "b_m", "-"),
     )
-    _checks.raise_if_concrete(
-        _finite(n_balls=z, ball_diameter=d, pitch_diameter=dm, contact_angle=alpha, b_m=bm)
-        + _geometry_rules(z, d, dm, alpha)
-        + [_checks.positive("b_m", bm, "-")]
+    _checks.check(
+        lambda xp, z, d, dm, alpha, bm: _finite(
+            xp, n_balls=z, ball_diameter=d, pitch_diameter=dm, contact_angle=alpha, b_m=bm
+        )
+        + _geometry_rules(xp, z, d, dm, alpha)
+        + [_checks.positive(xp, "b_m", bm, "-")],
+        z, d, dm, alpha, bm,
     )
     load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
     return _dynamic_load_rating(z, d, dm, alpha, bm)
@@ -208,17 +212,18 @@ def ball_race_load_ratings(
         (b_m, "b_m", "-"),
         (reduction, "reduction", "-"),
     )
-    _checks.raise_if_concrete(
-        _finite(
-            n_balls=z, ball_diameter=d, pitch_diameter=dm, groove_inner=fi, groove_outer=fo,
+    _checks.check(
+        lambda xp, z, d, dm, fi, fo, alpha, bm, red: _finite(
+            xp, n_balls=z, ball_diameter=d, pitch_diameter=dm, groove_inner=fi, groove_outer=fo,
             contact_angle=alpha, b_m=bm, reduction=red,
         )
-        + _geometry_rules(z, d, dm, alpha)
+        + _geometry_rules(xp, z, d, dm, alpha)
         + [
             (fi <= 0.5, "groove_inner (inner raceway conformity f_i = r_i/D) must exceed 0.5", fi),
             (fo <= 0.5, "groove_outer (outer raceway conformity f_o = r_o/D) must exceed 0.5", fo),
-            _checks.positive("b_m", bm, "-"),
-            _checks.positive("reduction", red, "-"),
-        ]
+            _checks.positive(xp, "b_m", bm, "-"),
+            _checks.positive(xp, "reduction", red, "-"),
+        ],
+        z, d, dm, fi, fo, alpha, bm, red,
     )
     return _race_ratings(z, d, dm, fi, fo, alpha, bm * red)

@@ -24,14 +24,16 @@ class Body(eqx.Module):
     inertia: jax.Array
 
     def __init__(self, mass, inertia):
-        self.mass = _checks.as_float(mass, "body mass", "kg")
-        self.inertia = _checks.as_float(inertia, "body moment of inertia", "kg m^2")
+        self.mass = _checks.as_float(mass, "mass", "kg")
+        self.inertia = _checks.as_float(inertia, "inertia", "kg m^2")
 
-    def violations(self):
-        _checks.require_scalars(self, ("mass", "inertia"))
+    def violations(self, xp, named=_checks.keyword):
+        """Its rules (`jaxbearing._checks`) in the array module ``xp``, each field named by
+        ``named``."""
+        _checks.require_scalars(self, ("mass", "inertia"), named)
         return [
-            _checks.positive("body mass", self.mass, "kg"),
-            _checks.positive("body moment of inertia", self.inertia, "kg m^2"),
+            _checks.positive(xp, named("mass"), self.mass, "kg"),
+            _checks.positive(xp, named("inertia"), self.inertia, "kg m^2"),
         ]
 
     def __check_init__(self):

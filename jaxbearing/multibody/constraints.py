@@ -112,8 +112,8 @@ class Revolute(AbstractJoint):
         if body_i == body_j:
             raise ValueError("Revolute joint needs two different bodies.")
         self.body_i, self.body_j = body_i, body_j
-        self.point_i = _checks.as_float(point_i, "revolute point_i", "m")
-        self.point_j = _checks.as_float(point_j, "revolute point_j", "m")
+        self.point_i = _checks.as_float(point_i, "point_i", "m")
+        self.point_j = _checks.as_float(point_j, "point_j", "m")
 
     def __call__(self, q, t):
         return point_position(q, self.body_i, self.point_i) - point_position(
@@ -154,9 +154,9 @@ class Translational(AbstractJoint):
         if body == GROUND:
             raise ValueError("Translational joint needs a moving body, not GROUND.")
         self.body = body
-        self.origin = _checks.as_float(origin, "translational origin", "m")
-        self.line_angle = _checks.as_float(line_angle, "translational line_angle", "rad")
-        self.body_angle = _checks.as_float(body_angle, "translational body_angle", "rad")
+        self.origin = _checks.as_float(origin, "origin", "m")
+        self.line_angle = _checks.as_float(line_angle, "line_angle", "rad")
+        self.body_angle = _checks.as_float(body_angle, "body_angle", "rad")
 
     def _normal(self):
         return jnp.stack([-jnp.sin(self.line_angle), jnp.cos(self.line_angle)])
@@ -190,8 +190,8 @@ class Driver(AbstractJoint):
         if body == GROUND:
             raise ValueError("Driver needs a moving body, not GROUND.")
         self.body = body
-        self.angle = _checks.as_float(angle, "driver angle", "rad")
-        self.speed = _checks.as_float(speed, "driver speed", "rad/s")
+        self.angle = _checks.as_float(angle, "angle", "rad")
+        self.speed = _checks.as_float(speed, "speed", "rad/s")
 
     def __call__(self, q, t):
         _, theta = pose(q, self.body)

@@ -46,8 +46,10 @@ class AbstractForceElement(eqx.Module):
         """The bodies it acts on (`GROUND` = -1 allowed)."""
 
     @abc.abstractmethod
-    def violations(self) -> list:
-        """Its parameter rules (`jaxbearing._checks`), those of its parameter Modules included."""
+    def violations(self, xp, named=_checks.keyword) -> list:
+        """Its parameter rules (`jaxbearing._checks`) in the array module ``xp``, those of its
+        parameter Modules included, each field named by ``named`` of its dotted path in the
+        element (``"bearing.clearance"``)."""
 
     @abc.abstractmethod
     def n_switched_balls(self) -> int:
@@ -87,8 +89,8 @@ class BearingJoint(AbstractForceElement):
         if outer_body == inner_body:
             raise ValueError("BearingJoint needs two different bodies for its races.")
         self.outer_body, self.inner_body = outer_body, inner_body
-        self.outer_point = _checks.as_float(outer_point, "bearing outer_point", "m")
-        self.inner_point = _checks.as_float(inner_point, "bearing inner_point", "m")
+        self.outer_point = _checks.as_float(outer_point, "outer_point", "m")
+        self.inner_point = _checks.as_float(inner_point, "inner_point", "m")
         self.bearing = bearing
 
     def offset(self, q):
@@ -169,8 +171,8 @@ class BearingJoint(AbstractForceElement):
     def bodies(self):
         return (self.outer_body, self.inner_body)
 
-    def violations(self):
-        return self.bearing.violations()
+    def violations(self, xp, named=_checks.keyword):
+        return self.bearing.violations(xp, lambda field: named("bearing." + field))
 
     def n_switched_balls(self):
         return self.bearing.n_balls if self.switched else 0
@@ -204,18 +206,18 @@ class CircleContact(AbstractForceElement):
         if body_j == body_k:
             raise ValueError("CircleContact needs two different bodies.")
         self.body_j, self.body_k = body_j, body_k
-        self.centre_j = _checks.as_float(centre_j, "contact centre_j", "m")
-        self.centre_k = _checks.as_float(centre_k, "contact centre_k", "m")
-        self.radius_j = _checks.as_float(radius_j, "contact radius_j", "m")
-        self.radius_k = _checks.as_float(radius_k, "contact radius_k", "m")
+        self.centre_j = _checks.as_float(centre_j, "centre_j", "m")
+        self.centre_k = _checks.as_float(centre_k, "centre_k", "m")
+        self.radius_j = _checks.as_float(radius_j, "radius_j", "m")
+        self.radius_k = _checks.as_float(radius_k, "radius_k", "m")
         self.impact = impact
-        self.active_from = _checks.as_float(active_from, "contact active_from", "s")
+        self.active_from = _checks.as_float(active_from, "active_from", "s")
 
-    def violations(self):
+    def violations(self, xp, named=_checks.keyword):
         return [
-            _checks.positive("contact radius_j", self.radius_j, "m"),
-            _checks.positive("contact radius_k", self.radius_k, "m"),
-        ] + self.impact.violations()
+            _checks.positive(xp, named("radius_j"), self.radius_j, "m"),
+            _checks.positive(xp, named("radius_k"), self.radius_k, "m"),
+        ] + self.impact.violations(xp, lambda field: named("impact." + field))
 
     def bodies(self):
         return (self.body_j, self.body_k)
@@ -288,17 +290,17 @@ class SpringDamper(AbstractForceElement):
 
     def __init__(self, body_i: int, point_i, body_j: int, point_j, stiffness, damping, free_length):
         self.body_i, self.body_j = body_i, body_j
-        self.point_i = _checks.as_float(point_i, "spring point_i", "m")
-        self.point_j = _checks.as_float(point_j, "spring point_j", "m")
-        self.stiffness = _checks.as_float(stiffness, "spring stiffness", "N/m")
-        self.damping = _checks.as_float(damping, "spring damping", "N s/m")
-        self.free_length = _checks.as_float(free_length, "spring free length", "m")
+        self.point_i = _checks.as_float(point_i, "point_i", "m")
+        self.point_j = _checks.as_float(point_j, "point_j", "m")
+        self.stiffness = _checks.as_float(stiffness, "stiffness", "N/m")
+        self.damping = _checks.as_float(damping, "damping", "N s/m")
+        self.free_length = _checks.as_float(free_length, "free_length", "m")
 
-    def violations(self):
+    def violations(self, xp, named=_checks.keyword):
         return [
-            _checks.non_negative("spring stiffness", self.stiffness, "N/m"),
-            _checks.non_negative("spring damping", self.damping, "N s/m"),
-            _checks.positive("spring free length", self.free_length, "m"),
+            _checks.non_negative(xp, named("stiffness"), self.stiffness, "N/m"),
+            _checks.non_negative(xp, named("damping"), self.damping, "N s/m"),
+            _checks.positive(xp, named("free_length"), self.free_length, "m"),
         ]
 
     def __check_init__(self):
@@ -331,7 +333,7 @@ class Gravity(AbstractForceElement):
     acceleration: jax.Array
 
     def __init__(self, acceleration=(0.0, -9.80665)):
-        self.acceleration = _checks.as_float(acceleration, "gravity acceleration", "m/s^2")
+        self.acceleration = _checks.as_float(acceleration, "acceleration", "m/s^2")
 
     def generalized_force(self, t, q, qd, inputs: ForceInputs):
         """[m g_x, m g_y, 0] per body, for the body masses ``inputs.masses`` (n_bodies,) [kg]."""
@@ -344,7 +346,7 @@ class Gravity(AbstractForceElement):
     def bodies(self):
         return ()
 
-    def violations(self):
+    def violations(self, xp, named=_checks.keyword):
         return []
 
     def n_switched_balls(self):

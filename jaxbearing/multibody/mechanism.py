@@ -19,12 +19,14 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _checks
+from .. import _checks, paths
 from ..params import BallBearing, Impact
 from .bodies import GROUND, Body
 from .constraints import AbstractJoint, JacobianRows, Revolute
@@ -86,12 +88,12 @@ class Mechanism(eqx.Module):
         self.forces = tuple(forces)
         self.contacts = tuple(contacts)
         self.gravity = gravity
-        self.q0 = _checks.as_float(q0, "initial positions q0", "m, rad")
+        self.q0 = _checks.as_float(q0, "q0", "m, rad")
         if qd0 is None:
             qd0 = jnp.zeros_like(self.q0)
-        self.qd0 = _checks.as_float(qd0, "initial velocities qd0", "m/s, rad/s")
-        self.baumgarte_alpha = _checks.as_float(baumgarte_alpha, "Baumgarte alpha", "1/s")
-        self.baumgarte_beta = _checks.as_float(baumgarte_beta, "Baumgarte beta", "1/s")
+        self.qd0 = _checks.as_float(qd0, "qd0", "m/s, rad/s")
+        self.baumgarte_alpha = _checks.as_float(baumgarte_alpha, "baumgarte_alpha", "1/s")
+        self.baumgarte_beta = _checks.as_float(baumgarte_beta, "baumgarte_beta", "1/s")
         n = 3 * len(self.bodies)
         if not self.bodies:
             raise ValueError("A Mechanism needs at least one moving body.")
@@ -295,24 +297,29 @@ class Mechanism(eqx.Module):
 
         return assemble(self, q_guess, qd_guess, t0)
 
-    def parameter_violations(self):
-        """Every rule on every parameter of the model; first that every floating leaf is finite
-        (named by its dotted path)."""
-        rules = _checks.finite_leaves(self)
-        parts = self.bodies + self.forces + self.contacts
+    def parameter_violations(self, xp):
+        """Every rule on every parameter of the model, in the array module ``xp``; first that
+        every floating leaf is finite. Each parameter is named by the path a user types for it
+        (`jaxbearing.paths.typed`: ``bearing.clearance``, ``bodies.1.mass``)."""
+        named = functools.partial(paths.typed, self)
+        rules = _checks.finite_leaves(xp, self, named)
+        parts = [(f"bodies.{i}.", b) for i, b in enumerate(self.bodies)]
+        parts += [(f"forces.{i}.", f) for i, f in enumerate(self.forces)]
+        parts += [(f"contacts.{i}.", c) for i, c in enumerate(self.contacts)]
         if self.gravity is not None:
-            parts += (self.gravity,)
-        for part in parts:
-            rules.extend(part.violations())
-        rules.append(_checks.positive("Baumgarte alpha", self.baumgarte_alpha, "1/s"))
-        rules.append(_checks.positive("Baumgarte beta", self.baumgarte_beta, "1/s"))
+            parts.append(("gravity.", self.gravity))
+        for prefix, part in parts:
+            rules.extend(part.violations(xp, lambda field, prefix=prefix: named(prefix + field)))
+        rules.append(_checks.positive(xp, "baumgarte_alpha", self.baumgarte_alpha, "1/s"))
+        rules.append(_checks.positive(xp, "baumgarte_beta", self.baumgarte_beta, "1/s"))
         return rules
 
-    def violations(self, t0=0.0):
+    def violations(self, xp, t0=0.0):
         """`parameter_violations` and the consistency of the initial state at ``t0`` [s]: every
         joint and driver satisfied (each joint named), no contact switched on while its surfaces
-        overlap."""
-        rules = self.parameter_violations()
+        overlap. The joints and contacts are JAX functions: with ``xp`` NumPy, those rules are
+        eager JAX operations (the solve evaluates all of them inside its program)."""
+        rules = self.parameter_violations(xp)
         t0 = jnp.asarray(t0, self.q0.dtype)
         for i, joint in enumerate(self.joints):
             pos = jnp.max(jnp.abs(joint(self.q0, t0)))
@@ -352,7 +359,8 @@ class Mechanism(eqx.Module):
         return "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
 
     def __check_init__(self):
-        _checks.raise_if_concrete(_checks.on_host(self).parameter_violations())
+        if _checks.is_concrete(*jax.tree_util.tree_leaves(self)):
+            _checks.raise_first(_checks.on_host(self).parameter_violations(np))
 
 
 def _refuse_pins_at_bearings(model) -> None:

@@ -57,20 +57,18 @@ def simulate_one_loop(
     records = a.options.records
     stops = _checks.window_stops(a.options.window_edges, a.model.window_start, record_edges(records))
     fatigue = a.options.fatigue is not False
-    sol = _one_loop(
+    sol, broken = _one_loop(
         a.model, a.t0, a.t1, a.dt0, a.solver, a.controller, jnp.asarray(max_steps), stops, fatigue,
-        records,
-        a.max_onsets,
+        records, a.max_onsets,
     )
-    rules = lambda: _checks.start_rules(a.model, a.t0, a.t1)  # noqa: E731
-    sol = raise_on_failure(sol, a.t1, rules, ROOT_STEPS) if throw else sol
+    sol = raise_on_failure(sol, a.t1, broken, ROOT_STEPS) if throw else sol
     warn_if_drifting(sol, a.model)
     return sol
 
 
 @eqx.filter_jit
 def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets):
-    setup, state = core_start(
+    setup, state, broken = core_start(
         model, t0, t1, dt0, None, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets,
         "lax",
     )
@@ -83,7 +81,8 @@ def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fa
     rows = lambda start, size, in_blocks=False: tuple(  # noqa: E731
         jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
     )
-    return solution(
+    sol = solution(
         model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
         jnp.asarray(1), records,
     )
+    return sol, broken

@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .. import _checks, _stored
+from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
 from ..solution import (
@@ -132,7 +132,7 @@ def simulate(
     sizes = _segmentation(model, options, a.span, ts) + (a.max_onsets,)
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
-    sol = _with_adjoint(
+    sol, broken = _with_adjoint(
         adjoint,
         model,
         t0,
@@ -149,7 +149,7 @@ def simulate(
         None if progress is None else label_key(progress),
     )
     if throw:
-        sol = raise_on_failure(sol, t1, lambda: _checks.start_rules(model, t0, t1, ts), ROOT_STEPS)
+        sol = raise_on_failure(sol, t1, broken, ROOT_STEPS)
     warn_if_drifting(sol, model)
     return sol if ts.shape[0] == n_out else first_rows(sol, n_out)
 
@@ -243,8 +243,8 @@ def _with_adjoint(adjoint, *args):
     JAX refuses to differentiate in forward mode: a `TypeError` raised while tracing under such a
     loop carries a note naming the adjoint to pass."""
     kind = "checkpointed" if adjoint is None else loop_kind(adjoint)
-    try:  # without a progress bar (no host callback) the program is kept by `jaxbearing._stored`
-        return _stored.call(_simulate, *args, kind) if args[-1] is None else _simulate(*args, kind)
+    try:
+        return _simulate(*args, kind)  # (the `Solution`, the broken rule: `_checks.Broken`)
     except TypeError as err:
         if kind == "checkpointed":
             err.add_note(
@@ -267,8 +267,9 @@ def _checked_options(options) -> SolveOptions:
 def core_start(
     model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
 ):
-    """The core's `Setup` of one solve and its `State` at t0 (both drivers), done at once where a
-    rule of the run (`_checks.start_rules`) is broken. ``dt0``: the first step [s]."""
+    """The core's `Setup` of one solve, its `State` at t0 (both drivers), done at once where a
+    rule of the run (`_checks.start_rules`) is broken, and which rule (`_checks.Broken`).
+    ``dt0``: the first step [s]."""
     n = model.n_coordinates
 
     def vector_field(t, y, args):
@@ -288,9 +289,9 @@ def core_start(
         fatigue=fatigue,
         records=records,
     )
-    invalid = _checks.any_violated(_checks.start_rules(model, t0, t1, ts))
+    broken = _checks.broken(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
-    return setup, initial_state(setup, t0, y0, dt0, max_onsets, invalid)
+    return setup, initial_state(setup, t0, y0, dt0, max_onsets, broken.index >= 0), broken
 
 
 @eqx.filter_jit
@@ -299,7 +300,7 @@ def _simulate(
     kind,
 ):
     max_segments, segment_steps, block, max_onsets = sizes
-    setup, state = core_start(
+    setup, state, broken = core_start(
         model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets,
         kind,
     )
@@ -309,11 +310,12 @@ def _simulate(
     )
     x = final.state
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
-    return solution(
+    sol = solution(
         model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
         final.written, final.written // block * block, jnp.sum(used),  # full blocks: evaluated
         records,
     )
+    return sol, broken
 
 
 def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments, records) -> Solution:
