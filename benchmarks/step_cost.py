@@ -108,12 +108,17 @@ def _export(rev: str, into: Path) -> Path:
     return into
 
 
-def _interleaved(a: Worker, b: Worker, runs: int) -> tuple[list, list]:
+def _interleaved(a: tuple, b: tuple, runs: int) -> tuple[Worker, Worker, list, list]:
+    """Workers of ``a`` and ``b`` ((case, tree, cache) each), their ``runs`` runs taken in turn;
+    the workers are closed after."""
+    workers = Worker(*a), Worker(*b)
     out_a, out_b = [], []
     for _ in range(runs):
-        out_a.append(a.run())
-        out_b.append(b.run())
-    return out_a, out_b
+        out_a.append(workers[0].run())
+        out_b.append(workers[1].run())
+    for w in workers:
+        w.close()
+    return (*workers, out_a, out_b)
 
 
 def _per_step(runs: list) -> float:
@@ -137,10 +142,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         parent = _export(args.against, tmp / "parent")
-        here, there = Worker("paper", ROOT, tmp / "c1"), Worker("paper", parent, tmp / "c2")
-        new, old = _interleaved(here, there, args.runs)
-        for w in (here, there):
-            w.close()
+        here, there, new, old = _interleaved(("paper", ROOT, tmp / "c1"), ("paper", parent, tmp / "c2"), args.runs)
         ratio = _per_step(new) / _per_step(old)
         results["paper"] = {
             "against": args.against,
@@ -157,10 +159,9 @@ def main(argv=None):
               f"{1e6 * _per_step(new):.2f} us against {1e6 * _per_step(old):.2f} us: {ratio:.3f}x "
               f"(target <= {PAPER_RATIO}); first call {here.first['first']:.1f} s against "
               f"{there.first['first']:.1f} s", flush=True)  # fmt: skip
-        two, one = Worker("two_bearings", ROOT, tmp / "c3"), Worker("one_bearing", ROOT, tmp / "c4")
-        runs_two, runs_one = _interleaved(two, one, args.runs)
-        for w in (two, one):
-            w.close()
+        two, one, runs_two, runs_one = _interleaved(
+            ("two_bearings", ROOT, tmp / "c3"), ("one_bearing", ROOT, tmp / "c4"), args.runs
+        )
         ratio = _per_step(runs_two) / _per_step(runs_one)
         results["two_bearings"] = {
             "steps": [runs_two[0]["steps"], runs_one[0]["steps"]],

@@ -163,9 +163,9 @@ def test_the_loop_flag_is_added_only_before_the_first_computation():
     assert getattr(jax.config, _process._PROBE) == probe  # left as it was
 
 
-_SECOND_PROCESS = """
+# a child process that counts the programs it compiles and those it loads from the cache
+_COUNTING = """
 import json
-import equinox as eqx
 import jax
 jax.config.update("jax_enable_x64", True)
 import jaxbearing as jb
@@ -177,6 +177,10 @@ def count(event, duration=None, **kwargs):
         counts["cache_hits"] += 1
 jax.monitoring.register_event_duration_secs_listener(count)
 jax.monitoring.register_event_listener(count)
+"""
+
+_SECOND_PROCESS = _COUNTING + """
+import equinox as eqx
 model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth"), speed=100.0)
 def loss(clearance):
     changed = eqx.tree_at(lambda m: m.bearing.clearance, model, clearance)
@@ -214,19 +218,7 @@ def test_a_second_process_compiles_nothing_for_the_same_derivatives(tmp_path, ow
     assert second["raised"].startswith("The simulation stopped at t = "), second
 
 
-_SOLVE_TWICE = """
-import json
-import jax
-jax.config.update("jax_enable_x64", True)
-import jaxbearing as jb
-counts = {"compiles": 0, "cache_hits": 0}
-def count(event, duration=None, **kwargs):
-    if event == "/jax/core/compile/backend_compile_duration":  # every program compiled or loaded
-        counts["compiles"] += 1
-    if event == "/jax/compilation_cache/cache_hits":
-        counts["cache_hits"] += 1
-jax.monitoring.register_event_duration_secs_listener(count)
-jax.monitoring.register_event_listener(count)
+_SOLVE_TWICE = _COUNTING + """
 sol = jb.simulate(jb.cases.rotor(jb.cases.skf98205()), 0.01, jax.numpy.linspace(0.0, 0.01, 5))
 cached = sorted(p.name.split("-")[0] for p in __import__("pathlib").Path(jax.config.jax_compilation_cache_dir).iterdir())
 print(json.dumps({**counts, "q": sol.q.tolist(), "cached": cached}))
