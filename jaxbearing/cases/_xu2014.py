@@ -24,7 +24,7 @@ from ..multibody import (
     SpringDamper,
     Translational,
 )
-from ..params import CATALOGUE, BallBearing, Impact
+from ..params import CATALOGUE, AbstractBearing, BallBearing, Impact
 
 CRANK_LENGTH = 0.050  # [m]
 ROD_LENGTH = 0.120  # [m]
@@ -75,6 +75,7 @@ def xu2014(
     crank_speed=20.0 * np.pi,
     contact_on=0.05,
     window_start=WINDOW_START,
+    bearing: AbstractBearing | None = None,
 ) -> Mechanism:
     """The paper's impact slider–crank (Tables 1–4), SI units.
 
@@ -86,7 +87,18 @@ def xu2014(
         crank_speed: [rad/s] (600 rpm). contact_on: time the contact is switched on [s].
         window_start: where the metrics' default window starts [s] (`WINDOW_START`, after the
             start-up transient); None: the whole span.
+        bearing: the crank–rod bearing in place of the SKF 98205 (a `BallBearing` or a
+            `RollerBearing`, e.g. ``RollerBearing.from_catalogue("NU205-estimated")``); None:
+            `skf98205` with ``cage``, ``ball_force``, ``clearance`` and ``bearing_damping``,
+            which must keep their defaults when a bearing is given.
     """
+    if bearing is None:
+        bearing = skf98205(cage, ball_force, clearance, bearing_damping)
+    elif (cage, ball_force, clearance, bearing_damping) != ("kinematic", "paper", 0.04e-3, 300.0):
+        raise ValueError(
+            "xu2014: give cage, ball_force, clearance and bearing_damping to the bearing passed "
+            "as bearing=, not to xu2014."
+        )
     l2, l3 = CRANK_LENGTH, ROD_LENGTH
     bodies = (
         Body(0.75, 5.2e-4),  # crank
@@ -103,7 +115,7 @@ def xu2014(
     )
     x_target = l2 + l3 + 0.010
     forces = (
-        BearingJoint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), skf98205(cage, ball_force, clearance, bearing_damping)),
+        BearingJoint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), bearing),
         SpringDamper(
             GROUND, (x_target + SPRING_FREE_LENGTH, 0.0), 3, (0.0, 0.0), 100e3, 120.0, SPRING_FREE_LENGTH
         ),
