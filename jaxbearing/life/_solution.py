@@ -16,10 +16,11 @@ import jax.numpy as jnp
 from .._checks import is_concrete
 from ..metrics import WithModel, intervals_inside, window_start
 from ..multibody.mechanism import Mechanism
+from ..params import BallBearing, RollerBearing
 from ..solution import (
     FAT_BALL_CUBED,
     FAT_BALL_TEN_THIRDS,
-    FAT_FORCE_CUBED,
+    FAT_FORCE_POWER,
     FAT_REVOLUTIONS,
     FAT_TIME,
     FORCE_SCALE,
@@ -32,17 +33,26 @@ from ._formulas import (
     _safe_ratio,
     life_hours,
     rating_life,
+    reliability_factor,
     ring_cube_mean,
 )
-from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_load_rating
+from ._ratings import (
+    B_M,
+    ISO_REDUCTION,
+    ball_race_load_ratings,
+    dynamic_load_rating,
+    roller_dynamic_load_rating,
+)
 
 
 class RatingLife(eqx.Module):
     """ISO 281 basic rating life of a simulated bearing (`iso_life`).
 
-    Fields: load_rating C_r [N]; equivalent_load P [N] (revolution-weighted cube mean of |F|);
-    l10 = (C_r/P)^3 [millions of relative revolutions]; speed n [rpm] (mean relative speed);
-    l10_hours [h]; revolutions: relative revolutions in the window.
+    Fields: load_rating C_r [N]; equivalent_load P [N] (revolution-weighted mean of |F|^p,
+    p = 3 for balls, 10/3 for rollers); l10 = (C_r/P)^p [millions of relative revolutions];
+    speed n [rpm] (mean relative speed); l10_hours [h]; revolutions: relative revolutions in
+    the window; a1: ISO 281's life modification factor for the reliability asked for;
+    lnm = a1 l10 [millions of relative revolutions] and lnm_hours [h].
     """
 
     load_rating: jax.Array
@@ -51,6 +61,9 @@ class RatingLife(eqx.Module):
     speed: jax.Array
     l10_hours: jax.Array
     revolutions: jax.Array
+    a1: jax.Array
+    lnm: jax.Array
+    lnm_hours: jax.Array
 
 
 class LPLife(eqx.Module):
@@ -59,7 +72,7 @@ class LPLife(eqx.Module):
     Fields: rating_inner, rating_outer: Q_ci, Q_co [N]; load_inner, load_outer: equivalent
     ball loads Q_e of each ring [N]; life_inner, life_outer: ring lives (Q_c/Q_e)^3 [millions of
     relative revolutions]; l10: bearing life [millions of relative revolutions]; speed n [rpm];
-    l10_hours [h].
+    l10_hours [h]; a1, lnm = a1 l10, lnm_hours: as `RatingLife`'s.
     """
 
     rating_inner: jax.Array
@@ -71,6 +84,9 @@ class LPLife(eqx.Module):
     l10: jax.Array
     speed: jax.Array
     l10_hours: jax.Array
+    a1: jax.Array
+    lnm: jax.Array
+    lnm_hours: jax.Array
 
 
 def _joint(model: Mechanism, bearing: int):
@@ -91,12 +107,19 @@ def relative_speed(sol: Solution, model: Mechanism, bearing: int = 0) -> jax.Arr
     return jax.vmap(_joint(model, bearing).relative_speed)(sol.q, sol.qd)
 
 
-def _bearing_geometry(model: Mechanism, bearing: int):
-    """(Z, D, d_m) from the BallBearing's raceway diameters d_i = d_m - D, d_o = d_m + D."""
-    b = _joint(model, bearing).bearing
-    d = 0.5 * (b.outer_race_diameter - b.inner_race_diameter)
-    dm = 0.5 * (b.outer_race_diameter + b.inner_race_diameter)
-    return b.n_balls, d, dm
+def dynamic_rating(b) -> jax.Array:
+    """ISO 281's basic dynamic radial load rating C_r [N] of a bearing's parameters, by its
+    kind: `dynamic_load_rating` of a `BallBearing`, `roller_dynamic_load_rating` of a
+    `RollerBearing` (Z, D and d_m from the raceway diameters d_i = d_m - D, d_o = d_m + D)."""
+    if isinstance(b, RollerBearing):
+        return roller_dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length)
+    return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
+
+
+def _reliability(reliability, l10, n):
+    """(a1, L_nm = a1 L10, L_nm in hours at n [rpm])."""
+    a1 = reliability_factor(reliability)
+    return a1, a1 * l10, 1e6 * a1 * l10 / (60.0 * n)
 
 
 def _check_solution(sol: Solution, bearing: int):
@@ -115,12 +138,20 @@ def _check_solution(sol: Solution, bearing: int):
 
 
 def iso_life(
-    sol: Solution, model: Mechanism, *, t_min="model", t_max=None, bearing: int = 0
+    sol: Solution,
+    model: Mechanism,
+    *,
+    t_min="model",
+    t_max=None,
+    bearing: int = 0,
+    reliability=0.9,
 ) -> RatingLife:
     """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
-    (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
-    force magnitude over the window (`equivalent_load`'s rule), L10 = (C_r/P)^3, L10h at the
-    mean relative speed.
+    (`dynamic_load_rating`, b_m = 1.3, for a `BallBearing`; `roller_dynamic_load_rating`,
+    b_m = 1.1, for a `RollerBearing`), P the revolution-weighted mean of |F|^p of the bearing
+    force over the window (`equivalent_load`'s rule; p = 3 for balls, 10/3 for rollers),
+    L10 = (C_r/P)^p, L10h at the mean relative speed, and L_nm = a1 L10 at ``reliability``
+    (`reliability_factor`, ISO 281 Table 12).
 
     The means are integrals of the solution (``sol.fatigue``: Gauss–Legendre quadrature of each
     accepted step's interpolant), not of the output times.
@@ -128,17 +159,19 @@ def iso_life(
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
     [s] ("model": the model's ``window_start``; None: unbounded), whose edges must be ends of
     the solve's stop intervals (t0, the model's ``window_start``, ``SolveOptions.window_edges``,
-    t1); bearing: index of the bearing joint (0, the one `Solution` records).
+    t1); bearing: index of the bearing joint (0, the one `Solution` records); reliability:
+    S in [0.9, 0.9995].
     """
     _check_solution(sol, bearing)
-    z, d, dm = _bearing_geometry(model, bearing)
+    b = _joint(model, bearing).bearing
     integrals, _, _ = _window_integrals(sol, t_min, t_max)
     revolutions = integrals[FAT_REVOLUTIONS]
-    c = dynamic_load_rating(z, d, dm)
-    p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_CUBED], revolutions), 1.0 / 3.0)
+    c = dynamic_rating(b)
+    exponent = b.life_exponent
+    p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_POWER], revolutions), 1.0 / exponent)
     n = 60.0 * revolutions / integrals[FAT_TIME]
-    l10 = rating_life(c, p)
-    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions)
+    l10 = rating_life(c, p, exponent)
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *_reliability(reliability, l10, n))
 
 
 def _window_integrals(sol: Solution, t_min, t_max):
@@ -213,6 +246,7 @@ def lp_life(
     b_m=B_M,
     reduction=ISO_REDUCTION,
     bearing: int = 0,
+    reliability=0.9,
 ) -> LPLife:
     """Lundberg–Palmgren life of the simulated bearing from its ball loads (Harris & Kotzalas).
 
@@ -253,6 +287,11 @@ def lp_life(
             `solution.RING_POINTS_PER_BALL`; None or that number.
         b_m, reduction: factors of the ratings, see `ball_race_load_ratings`.
         bearing: index of the bearing joint (0).
+        reliability: S in [0.9, 0.9995] of L_nm = a1 L10 (`reliability_factor`).
+
+    Ball bearings only: a `RollerBearing` is refused (its line contacts need the ring ratings
+    of Harris & Kotzalas with the load–life exponent 4, and ring-point records of Q^4, which
+    the solve does not keep); `iso_life` rates it.
     """
     if rotating not in (None, "inner", "outer"):
         raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
@@ -262,7 +301,15 @@ def lp_life(
             f"points_per_ball: the solution follows {RING_POINTS_PER_BALL} points of each ring "
             f"per ball (solution.RING_POINTS_PER_BALL); got {points_per_ball}."
         )
-    z, d, dm = _bearing_geometry(model, bearing)
+    b = _joint(model, bearing).bearing
+    if not isinstance(b, BallBearing):
+        raise ValueError(
+            f"lp_life rates ball bearings; this bearing is a {type(b).__name__}. The "
+            "Lundberg–Palmgren life of line contacts needs roller–raceway ratings with the "
+            "load–life exponent 4 (Harris & Kotzalas) and ring-point records of Q^4, which the "
+            "solve does not keep (sol.fatigue holds cubes): use iso_life."
+        )
+    z, d, dm = b.n_balls, b.ball_diameter, b.pitch_diameter
     q_ci, q_co = ball_race_load_ratings(
         z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
     )
@@ -282,7 +329,7 @@ def lp_life(
     n = 60.0 * revolutions / integrals[FAT_TIME]
     return LPLife(
         q_ci, q_co, q_ei, q_eo, _safe_ratio(1.0, inv_i), _safe_ratio(1.0, inv_o), l10, n,
-        1e6 * l10 / (60.0 * n),
+        1e6 * l10 / (60.0 * n), *_reliability(reliability, l10, n),
     )  # fmt: skip
 
 
