@@ -34,7 +34,9 @@ CATALOGUE = {
 # catalogue's inner raceway diameter F = 31.5 mm and ratings C_r 28.6 kN, C_0r 27.0 kN.
 ROLLER_CATALOGUE = {
     "209": dict(pitch_diameter=65.0115e-3, roller_diameter=10e-3, roller_length=9.6e-3, n_rollers=14),
-    "NU205-estimated": dict(pitch_diameter=38.9e-3, roller_diameter=7.4e-3, roller_length=7.9e-3, n_rollers=13),
+    "NU205-estimated": dict(
+        pitch_diameter=38.9e-3, roller_diameter=7.4e-3, roller_length=7.9e-3, n_rollers=13
+    ),
 }
 BALL_EXPONENT = 1.5
 ROLLER_EXPONENT = 10.0 / 9.0
@@ -361,7 +363,9 @@ class RollerBearing(AbstractBearing):
         )
 
     @classmethod
-    def from_catalogue(cls, designation: str, *, clearance=0.04e-3, damping=300.0, **kwargs) -> RollerBearing:
+    def from_catalogue(
+        cls, designation: str, *, clearance=0.04e-3, damping=300.0, **kwargs
+    ) -> RollerBearing:
         """A cylindrical roller bearing by its designation (the keys of `ROLLER_CATALOGUE`:
         "209", Harris & Kotzalas' 209 cylindrical roller bearing; "NU205-estimated", internals
         estimated for the NU 205, docs/model.md, 'Roller bearings') with the given diametral

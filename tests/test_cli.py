@@ -383,7 +383,7 @@ def test_module_entry_point_help():
 # ---------------------------------------------------------------------------------------------
 
 ALLOWED = r"the allowed keys are bearing\.clearance, bearing\.damping, bearing\.cage, " \
-    r"bearing\.ball_force, impact\.restitution, impact\.friction, impact\.contact_on, crank\.speed, metrics\.window_start"
+    r"bearing\.ball_force, bearing\.designation, impact\.restitution, impact\.friction, impact\.contact_on, crank\.speed, metrics\.window_start"
 
 BAD_CONFIGS = [
     ("[bearing]\nclearence = 4e-5\n", r"unknown key bearing\.clearence; " + ALLOWED),

@@ -91,10 +91,15 @@ def test_other_materials_are_refused():
 
 def test_xu2014_takes_a_roller_bearing_in_place_of_its_ball_bearing():
     nu205 = jb.RollerBearing.from_catalogue("NU205-estimated")
-    model = jb.cases.xu2014(bearing=nu205)
-    assert model.bearing is nu205
+    assert jb.cases.xu2014(bearing=nu205).bearing is nu205
+    by_name = jb.cases.xu2014(bearing="NU205-estimated", clearance=20e-6, ball_force="smooth").bearing
+    assert isinstance(by_name, jb.RollerBearing) and by_name.ball_force == "smooth"
+    assert float(by_name.clearance) == 20e-6 and float(by_name.stiffness) == float(nu205.stiffness)
+    assert isinstance(jb.cases.xu2014().bearing, jb.BallBearing)
     with pytest.raises(ValueError, match="bearing="):
         jb.cases.xu2014(bearing=nu205, clearance=20e-6)
+    with pytest.raises(ValueError, match="designations"):
+        jb.cases.xu2014(bearing="NU 205")
 
 
 # ---------------------------------------------------------------------------- the standards
@@ -324,3 +329,25 @@ def test_a_sweep_over_the_roller_clearance():
     assert not ds["failed"].any()
     small, large = ds["peak_ball_load"].values
     assert W / 4 < small < large < W
+
+
+@pytest.mark.slow  # ~1-1.5 min: a forward-mode compile of the rotor
+def test_derivative_of_the_roller_load_at_rest_wrt_clearance():
+    """d Q_max / d P_d of the rotor at rest (smooth force), forward mode through the whole
+    simulation, against a central difference of the SciPy equilibrium (as
+    test_roller_loads_at_rest_are_the_rollers_equilibrium): within 1e-3, the settling and the
+    difference's truncation (h = 0.1 um on 20 um) being far below."""
+    model = loaded_rotor(roller(ball_force="smooth"))
+    value, grads = jb.sensitivity(model, jb.metrics.peak_ball_load, ["bearing.clearance"], 0.03)
+    b = model.bearing
+
+    def q_max(clearance):
+        e = static_eccentricity(W, -np.pi / 2, clearance=clearance, stiffness=float(b.stiffness),
+                                n_balls=b.n_balls, exponent=10 / 9)  # fmt: skip
+        phi = 2 * np.pi * np.arange(b.n_balls) / b.n_balls
+        return float(b.stiffness) * np.max(np.maximum(-e * np.sin(phi) - 0.5 * clearance, 0.0)) ** (10 / 9)
+
+    c, h = float(b.clearance), 1e-7
+    assert float(value) == pytest.approx(q_max(c), rel=1e-6)
+    expected = (q_max(c + h) - q_max(c - h)) / (2 * h)
+    assert float(grads["bearing.clearance"]) == pytest.approx(expected, rel=1e-3)

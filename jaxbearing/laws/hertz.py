@@ -82,7 +82,8 @@ __all__ = [
     "line_contact_stress",
 ]
 
-PALMGREN_LINE = 3.84e-5  # [mm / (N^0.9 mm^-0.8)] delta = 3.84e-5 Q^0.9 / l^0.8 of one line contact (steel)
+# delta = 3.84e-5 Q^0.9 / l^0.8 [mm] (Q in N, l in mm) of one line contact between steel bodies
+PALMGREN_LINE = 3.84e-5
 
 def elliptic_integrals(m):
     """Complete elliptic integrals (K(m), E(m)) of parameter m = k^2, 0 <= m < 1.

@@ -1,5 +1,6 @@
-"""Rolling-contact fatigue life of the bearing from simulated loads: the ISO 281 rating and
-Lundberg–Palmgren per-ball life. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
+"""Rolling-contact fatigue life and static capacity of the bearing from simulated loads: the
+ISO 281 rating (ball and roller bearings), Lundberg–Palmgren per-ball life, and the ISO 76
+static safety. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
 `jax.grad` (``log`` of a life is a smooth objective, e.g. against the clearance).
 
 Two levels:
@@ -8,13 +9,13 @@ Two levels:
   `roller_dynamic_load_rating` (rollers) with their tables (`load_rating_factor`,
   `roller_load_rating_factor`), ISO 76's `static_load_rating` and `roller_static_load_rating`
   (`static_load_factor`), and of a bearing's parameters `dynamic_rating`, `static_rating`.
-- **Laws on arrays** (testable on synthetic histories): `revolution_weights`, `equivalent_load`, `rating_life`,
-  `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
+- **Laws on arrays** (testable on synthetic histories): `revolution_weights`,
+  `equivalent_load`, `rating_life`, `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
   `bearing_life`, `mean_speed_rpm`, `life_hours`, `reliability_factor` (ISO 281's a1).
 - **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`, `l10_hours`, and
   `metric`, the L10 life as a metric of sweeps; `static_safety`, the ISO 76 static capacity
-  (C_0r, the peak equivalent static load, s_0 and the contact stress). They apply the same rules to the integrals the
-  solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
+  (C_0r, the peak equivalent static load, s_0 and the contact stress). The lives apply the
+  same rules to the integrals the solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
   accepted step's interpolant, per interval between the solve's stops), not to the output
   samples, so a life does not depend on ``ts``; the window's edges must be stops of the solve.
   `relative_speed` and `ring_point_loads` give the sampled histories (for plots, or the array

@@ -175,7 +175,9 @@ def rating_life(load_rating, equivalent, exponent=3.0):
 A1_RELIABILITY = np.array(
     [0.90, 0.95, 0.96, 0.97, 0.98, 0.99, 0.992, 0.994, 0.996, 0.998, 0.999, 0.9992, 0.9994, 0.9995]
 )
-A1_TABLE = np.array([1.0, 0.64, 0.55, 0.47, 0.37, 0.25, 0.22, 0.19, 0.16, 0.12, 0.093, 0.087, 0.080, 0.077])
+A1_TABLE = np.array(
+    [1.0, 0.64, 0.55, 0.47, 0.37, 0.25, 0.22, 0.19, 0.16, 0.12, 0.093, 0.087, 0.080, 0.077]
+)
 
 
 def reliability_factor(reliability):
@@ -191,7 +193,8 @@ def reliability_factor(reliability):
         [
             (
                 ~((s >= A1_RELIABILITY[0]) & (s <= A1_RELIABILITY[-1])),
-                "reliability must lie in [0.9, 0.9995] (ISO 281 Table 12; a fraction, 0.99 for 99 %)",
+                "reliability must lie in [0.9, 0.9995] (ISO 281 Table 12; a fraction: 0.99 for "
+                "99 %)",
                 s,
             )
         ]

@@ -56,7 +56,8 @@ F0_TABLE = np.array(
         11.6, 11.4, 11.2, 10.9, 10.7, 10.5, 10.3, 10.0, 9.8, 9.6, 9.4,
     ]
 )  # fmt: skip
-ROLLER_STATIC_FACTOR = 44.0  # [N/mm^2] of ISO 76's C_0r = 44 (1 - D_we cos a / D_pw) i Z L_we D_we cos a
+# [N/mm^2] of ISO 76's C_0r = 44 (1 - D_we cos a / D_pw) i Z L_we D_we cos a (roller bearings)
+ROLLER_STATIC_FACTOR = 44.0
 
 # Table 2 (first column) is this fraction of the Lundberg–Palmgren closed form of f_c
 # (Harris & Kotzalas, ch. 8: 39.9 [1 + (1.04 ((1-g)/(1+g))^1.72 (f_i (2f_e-1)/(f_e (2f_i-1)))^0.41)
@@ -238,7 +239,9 @@ def roller_dynamic_load_rating(
         (b_m, "b_m", "-"),
     )
     _checks.raise_if_concrete(
-        _roller_rules(z, d, dm, length, alpha) + _finite(b_m=bm) + [_checks.positive("b_m", bm, "-")]
+        _roller_rules(z, d, dm, length, alpha)
+        + _finite(b_m=bm)
+        + [_checks.positive("b_m", bm, "-")]
     )
     roller_load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
     return _roller_dynamic_load_rating(z, d, dm, length, alpha, bm)

@@ -112,7 +112,9 @@ def dynamic_rating(b) -> jax.Array:
     kind: `dynamic_load_rating` of a `BallBearing`, `roller_dynamic_load_rating` of a
     `RollerBearing` (Z, D and d_m from the raceway diameters d_i = d_m - D, d_o = d_m + D)."""
     if isinstance(b, RollerBearing):
-        return roller_dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length)
+        return roller_dynamic_load_rating(
+            b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length
+        )
     return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
 
 
@@ -171,7 +173,8 @@ def iso_life(
     p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_POWER], revolutions), 1.0 / exponent)
     n = 60.0 * revolutions / integrals[FAT_TIME]
     l10 = rating_life(c, p, exponent)
-    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *_reliability(reliability, l10, n))
+    lnm = _reliability(reliability, l10, n)
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *lnm)
 
 
 def _window_integrals(sol: Solution, t_min, t_max):

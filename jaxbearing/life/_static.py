@@ -55,11 +55,15 @@ def static_rating(b) -> jax.Array:
     """ISO 76's basic static radial load rating C_0r [N] of a bearing's parameters, by its kind:
     `static_load_rating` of a `BallBearing`, `roller_static_load_rating` of a `RollerBearing`."""
     if isinstance(b, RollerBearing):
-        return roller_static_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length)
+        return roller_static_load_rating(
+            b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length
+        )
     return static_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
 
 
-def element_contact_stress(b, load, groove_inner=ISO76_GROOVE_INNER, groove_outer=ISO76_GROOVE_OUTER):
+def element_contact_stress(
+    b, load, groove_inner=ISO76_GROOVE_INNER, groove_outer=ISO76_GROOVE_OUTER
+) -> jax.Array:
     """Largest Hertz contact pressure [Pa] of one rolling element of the bearing ``b`` under the
     load Q [N], over its inner and outer raceway contacts, rings and elements of steel (E
     207 GPa, nu 0.3). A ball: point contacts (`hertz.point_contact_stress`) with the raceway
@@ -84,7 +88,8 @@ def _peak_loads(sol: Solution, bearing, t_min, t_max):
     first bearing."""
     if bearing not in (None, 0):
         raise ValueError(
-            f"bearing: only the first bearing joint is recorded yet (bearing=None or 0); got {bearing!r}."
+            "bearing: only the first bearing joint is recorded yet (bearing=None or 0); "
+            f"got {bearing!r}."
         )
     force = metrics.peak_bearing_force(sol, t_min=t_min, t_max=t_max)
     element = metrics.peak_ball_load(sol, t_min=t_min, t_max=t_max)
@@ -125,4 +130,4 @@ def static_safety(
     c0 = static_rating(b)
     stress = element_contact_stress(b, q_max, groove_inner, groove_outer)
     permissible = PERMISSIBLE_ROLLER if isinstance(b, RollerBearing) else PERMISSIBLE_BALL
-    return StaticSafety(c0, p0, c0 / p0, q_max, stress, jnp.asarray(permissible))
+    return StaticSafety(c0, p0, c0 / p0, q_max, stress, jnp.asarray(permissible, jnp.float64))
