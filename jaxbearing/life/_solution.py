@@ -121,7 +121,7 @@ def dynamic_rating(b) -> jax.Array:
 def _reliability(reliability, l10, n):
     """(a1, L_nm = a1 L10, L_nm in hours at n [rpm])."""
     a1 = reliability_factor(reliability)
-    return a1, a1 * l10, 1e6 * a1 * l10 / (60.0 * n)
+    return a1, a1 * l10, life_hours(a1 * l10, n)
 
 
 def _check_solution(sol: Solution, bearing: int):
