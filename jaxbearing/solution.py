@@ -249,7 +249,7 @@ def instant(t, q, qd, f) -> Instant:
 class AbstractRecord(eqx.Module):
     """A quantity of your own that the solve records from every accepted step (`metrics.Peak`,
     `metrics.Mean`): ``fn(model, x) -> scalar`` with ``x`` an `Instant`, over the window
-    [``t_min``, ``t_max``] [s] (None: the model's ``window_start``, or t0 without one; t1),
+    from ``t_min`` to ``t_max`` [s] (None: the model's ``window_start``, or t0 without one; t1),
     whose edges the solve stops at. ``reduction`` is "peak" (a column of
     `SegmentStats.peaks`) or "mean" (of `SegmentStats.integrals`)."""
 
