@@ -323,7 +323,7 @@ def lp_life(
             f"lp_life rates ball bearings; this bearing is a {type(b).__name__}. The "
             "Lundberg–Palmgren life of line contacts needs roller–raceway ratings with the "
             "load–life exponent 4 (Harris & Kotzalas) and ring-point records of Q^4, which the "
-            "solve does not keep (sol.fatigue holds cubes): use iso_life."
+            "solve does not keep (the fatigue record holds cubes): use iso_life."
         )
     z, d, dm = b.n_balls, b.ball_diameter, b.pitch_diameter
     q_ci, q_co = ball_race_load_ratings(
