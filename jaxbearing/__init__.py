@@ -21,7 +21,7 @@ apply_compilation_cache()
 
 from . import cases, laws, life, metrics, multibody, paths
 from .multibody import Mechanism
-from .params import BallBearing, Impact
+from .params import AbstractBearing, BallBearing, Impact, RollerBearing
 from .solution import RESULTS, Contacts, SimulationError, Solution
 from .solve import (
     SolveOptions,
@@ -41,10 +41,12 @@ __version__ = "0.1.0"
 __all__ = [
     "DERIVATIVE_RTOL",
     "RESULTS",
+    "AbstractBearing",
     "BallBearing",
     "Contacts",
     "Impact",
     "Mechanism",
+    "RollerBearing",
     "SimulationError",
     "TuneResult",
     "TuneWarning",

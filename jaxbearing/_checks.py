@@ -259,21 +259,24 @@ def material(xp, youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", po
     ]
 
 
-def ball_count(xp, n_balls):
-    """A bearing has an integer number of balls, at least 3."""
+def ball_count(xp, n_balls, name="n_balls"):
+    """A bearing has an integer number of rolling elements, at least 3 (``name``: the argument
+    as the user types it, ``n_balls`` or ``n_rollers``)."""
     z = xp.asarray(n_balls)
-    return ((z < 3) | (z != xp.round(z)), "n_balls must be an integer of at least 3", n_balls)
+    return ((z < 3) | (z != xp.round(z)), f"{name} must be an integer of at least 3", n_balls)
 
 
-def balls_fit(xp, n_balls, ball_diameter, pitch_diameter):
-    """The balls fit around the pitch circle without overlapping: neighbours' centres lie
-    d_m sin(pi/Z) apart, so D < d_m sin(pi/Z)."""
+def balls_fit(xp, n_balls, ball_diameter, pitch_diameter, element="ball"):
+    """The rolling elements fit around the pitch circle without overlapping: neighbours'
+    centres lie d_m sin(pi/Z) apart, so D < d_m sin(pi/Z). ``element``: "ball" or "roller",
+    as the arguments are named (``ball_diameter``, ``n_balls`` or ``roller_diameter``,
+    ``n_rollers``)."""
     z, d, dm = (xp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
     return (
         d >= dm * xp.sin(xp.pi / xp.maximum(z, 1.0)),
         (
-            "ball_diameter must be below pitch_diameter * sin(pi / n_balls), or the balls "
-            "overlap on the pitch circle [m]"
+            f"{element}_diameter must be below pitch_diameter * sin(pi / n_{element}s), or the "
+            f"{element}s overlap on the pitch circle [m]"
         ),
         ball_diameter,
     )

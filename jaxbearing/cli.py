@@ -501,13 +501,14 @@ def _run_case(args, model, ts, label):
 
 def _write_case(out, key, label, impact, sol, s, summary, stride, done) -> list[Path]:
     """Write one case's CSV and the summary so far; print it; add its series to ``done``."""
-    from . import report
+    from . import cases, report
 
     data = report.series(sol)
     summary["cases"][key] = s
     summary["csv_columns"] = report.csv_columns(data)
     written = [report.write_csv(out / f"{key}.csv", data, stride)]
-    if not impact:
+    if not impact and len(report.ball_keys(data)) == len(cases.TABLE5):
+        # Table 5 holds the paper's 8 balls: a bearing of another designation has no table
         summary["table5"] = report.table5_summary(data)
     written.append(report.write_json(out / "summary.json", summary))
     print(report.format_summary(label, s), flush=True)

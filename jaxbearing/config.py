@@ -10,6 +10,8 @@ of `jaxbearing.cases.xu2014`:
     damping = 300.0          # C_b, per-ball damping [N s/m]           -> bearing_damping
     cage = "kinematic"       # "kinematic" or "constant"               -> cage
     ball_force = "paper"     # "paper" or "smooth"                     -> ball_force
+    designation = "98205"    # a catalogue bearing: "98205" (the paper's),  -> bearing
+                             # "NU205-estimated" or "209" (cylindrical roller bearings)
 
     [impact]
     restitution = 0.8        # e_c, in (0, 1]                          -> restitution
@@ -27,7 +29,7 @@ Rules, each broken one raising a `ConfigError` that names the file and the key:
 - only the keys above, inside their tables (the message lists the allowed keys);
 - numbers are TOML integers or floats, finite, in SI units; strings (``"40 um"``), booleans,
   arrays, tables and dates are refused where a number is expected;
-- ``cage`` and ``ball_force`` are one of the strings listed;
+- ``designation``, ``cage`` and ``ball_force`` are one of the strings listed;
 - the physical rules (clearance >= 0, restitution in (0, 1], ...) are those of the model's
   constructors, applied when the case is built (`xu2014_models`).
 """
@@ -41,7 +43,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import NamedTuple
 
-from .params import BallForce, CageMode
+from .params import CATALOGUE, ROLLER_CATALOGUE, BallForce, CageMode
 
 __all__ = [
     "XU2014",
@@ -78,6 +80,7 @@ XU2014: dict[str, dict[str, Number | Choice]] = {
         "damping": Number("bearing_damping", "N s/m"),
         "cage": Choice("cage", typing.get_args(CageMode)),
         "ball_force": Choice("ball_force", typing.get_args(BallForce)),
+        "designation": Choice("bearing", tuple(CATALOGUE) + tuple(ROLLER_CATALOGUE)),
     },
     "impact": {
         "restitution": Number("restitution", "-"),

@@ -495,7 +495,7 @@ class Peak(_Own):
     """The largest value over the window of ``fn(model, x)`` (x: the `solution.Instant` of each
     recorded point), recorded like the built-in exact peaks: at every accepted step's end, its 3
     Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of a
-    parabola through them. Window [``t_min``, ``t_max``] [s]: None, the model's
+    parabola through them. Window from ``t_min`` to ``t_max`` [s]: None, the model's
     ``window_start`` (t0 without one) and t1."""
 
     reduction = "peak"

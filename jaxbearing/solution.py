@@ -61,7 +61,7 @@ def integral_column(kind: str, index: int, n_bearings: int) -> int:
 
 RING_POINTS_PER_BALL = 8  # points of each ring per ball spacing that `FatigueStats` follows
 # columns of FatigueStats.integrals
-(FAT_TIME, FAT_REVOLUTIONS, FAT_FORCE_CUBED, FAT_BALL_CUBED, FAT_BALL_TEN_THIRDS) = range(5)
+(FAT_TIME, FAT_REVOLUTIONS, FAT_FORCE_POWER, FAT_BALL_CUBED, FAT_BALL_TEN_THIRDS) = range(5)
 
 
 class RESULTS(diffrax.RESULTS):
@@ -186,7 +186,8 @@ class FatigueStats(eqx.Module):
     Fields (C = number of stops):
         t_start, t_end: (C,) [s] of each interval, up to where the solve reached.
         integrals: (C, 5), the integrals over the interval of: 1 (its duration) [s], w [rev],
-            w (|F| / FORCE_SCALE)^3 (F the resultant, Eq. 28), w mean over balls of
+            w (|F| / FORCE_SCALE)^p (F the resultant, Eq. 28; p the bearing's
+            ``life_exponent``, 3 for balls, 10/3 for rollers), w mean over balls of
             (Q_r / FORCE_SCALE)^3, and of (Q_r / FORCE_SCALE)^(10/3). Columns ``FAT_*``.
         inner, outer: (C, M), w (Q_k / FORCE_SCALE)^3 integrated for each of M =
             `RING_POINTS_PER_BALL` x N_b points fixed in the inner and the outer ring, point k
@@ -248,7 +249,7 @@ def instant(t, q, qd, f) -> Instant:
 class AbstractRecord(eqx.Module):
     """A quantity of your own that the solve records from every accepted step (`metrics.Peak`,
     `metrics.Mean`): ``fn(model, x) -> scalar`` with ``x`` an `Instant`, over the window
-    [``t_min``, ``t_max``] [s] (None: the model's ``window_start``, or t0 without one; t1),
+    from ``t_min`` to ``t_max`` [s] (None: the model's ``window_start``, or t0 without one; t1),
     whose edges the solve stops at. ``reduction`` is "peak" (a column of
     `SegmentStats.peaks`) or "mean" (of `SegmentStats.integrals`)."""
 
@@ -536,7 +537,7 @@ def _fatigue_integrands(model, q, qd, f):
             [
                 jnp.ones_like(w),
                 w,
-                w * jnp.sum(force * force) ** 1.5,
+                w * jnp.sum(force * force) ** (0.5 * joint.bearing.life_exponent),
                 w * jnp.mean(balls**3),
                 w * jnp.mean(balls ** (10.0 / 3.0)),
             ]

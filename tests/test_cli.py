@@ -580,7 +580,7 @@ def test_sigterm_in_the_second_case_keeps_the_first_beside_the_earlier_result(qu
 # ---------------------------------------------------------------------------------------------
 
 ALLOWED = r"the allowed keys are bearing\.clearance, bearing\.damping, bearing\.cage, " \
-    r"bearing\.ball_force, impact\.restitution, impact\.friction, impact\.contact_on, crank\.speed, metrics\.window_start"
+    r"bearing\.ball_force, bearing\.designation, impact\.restitution, impact\.friction, impact\.contact_on, crank\.speed, metrics\.window_start"
 
 BAD_CONFIGS = [
     ("[bearing]\nclearence = 4e-5\n", r"unknown key bearing\.clearence; " + ALLOWED),

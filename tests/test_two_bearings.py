@@ -145,6 +145,23 @@ def test_each_bearing_has_its_own_life(stiff_run):
     assert float(lives[0].equivalent_load) != pytest.approx(float(lives[1].equivalent_load), rel=1e-2)
 
 
+def test_static_safety_of_each_bearing(stiff_run):
+    """ISO 76 of the second bearing from its own peaks: P_0r its peak |F|, Q_max its peak ball
+    load, C_0r = f_0 Z D^2 (Table 1 at D/d_m, 8 balls of 8.7 mm on 37.9 mm, N and mm), s_0 =
+    C_0r / P_0r to rounding; None names no bearing on a model with two."""
+    model, sol = stiff_run
+    s = jb.life.static_safety(sol, model, bearing=1)
+    p0 = float(jb.metrics.peak_bearing_force(sol, bearing=1))
+    assert float(s.p0) == pytest.approx(p0, rel=1e-12)
+    assert float(s.peak_element_load) == pytest.approx(float(jb.metrics.peak_ball_load(sol, bearing=1)), rel=1e-12)
+    c0 = np.interp(8.7 / 37.9, jb.life.F0_RATIO, jb.life.F0_TABLE) * 8 * 8.7**2
+    assert float(s.c0) == pytest.approx(c0, rel=1e-12)
+    assert float(s.s0) == pytest.approx(c0 / p0, rel=1e-12)
+    assert float(jb.life.static_safety(sol, model, bearing=0).p0) != pytest.approx(p0, rel=1e-2)
+    with pytest.raises(ValueError, match=r"2 bearing joints: pass bearing="):
+        jb.life.static_safety(sol, model)
+
+
 @pytest.mark.slow  # two sweeps members and two single runs of the two-bearing crank
 def test_a_sweep_over_the_second_bearing_equals_its_single_runs():
     model = two_bearing_crank(jb.cases.skf98205(ball_force="smooth", damping=3000.0))

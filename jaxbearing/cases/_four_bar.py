@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..multibody import GROUND, BearingJoint, Body, Driver, Gravity, Mechanism, Revolute
-from ..params import BallBearing
+from ..params import AbstractBearing
 from ._xu2014 import skf98205
 
 LENGTHS = (0.30, 0.10, 0.28, 0.25)  # [m] ground, crank, coupler, rocker (a crank–rocker: Grashof)
@@ -20,7 +20,7 @@ MASSES = (0.5, 1.0, 0.8)  # [kg] crank, coupler, rocker
 
 
 def four_bar(
-    bearing: BallBearing | None = None,
+    bearing: AbstractBearing | None = None,
     *,
     lengths=LENGTHS,
     masses=MASSES,

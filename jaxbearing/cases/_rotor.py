@@ -1,4 +1,5 @@
-"""A second mechanism from the same pieces: a rigid rotor hung in a ball bearing.
+"""A second mechanism from the same pieces: a rigid rotor hung in a rolling bearing (a
+`BallBearing` or a `RollerBearing`).
 
 A disc (body 0) is held only by its bearing, whose outer race is fixed to ground at the origin
 and whose inner race is the disc's centre. A driver spins it at a constant speed, gravity pulls
@@ -8,11 +9,11 @@ it onto the lower balls, and an unbalance (the centroid offset from the bearing 
 from __future__ import annotations
 
 from ..multibody import GROUND, BearingJoint, Body, Driver, Gravity, Mechanism
-from ..params import BallBearing
+from ..params import AbstractBearing
 
 
 def rotor(
-    bearing: BallBearing,
+    bearing: AbstractBearing,
     *,
     mass=2.0,
     inertia=2e-3,

@@ -24,7 +24,14 @@ from ..multibody import (
     SpringDamper,
     Translational,
 )
-from ..params import CATALOGUE, BallBearing, Impact
+from ..params import (
+    CATALOGUE,
+    ROLLER_CATALOGUE,
+    AbstractBearing,
+    BallBearing,
+    Impact,
+    RollerBearing,
+)
 
 CRANK_LENGTH = 0.050  # [m]
 ROD_LENGTH = 0.120  # [m]
@@ -63,6 +70,20 @@ def skf98205(
     )
 
 
+def _catalogue_bearing(designation: str, **kwargs) -> AbstractBearing:
+    """The catalogue bearing ``designation``: `BallBearing.from_catalogue` for the keys of
+    `params.CATALOGUE`, `RollerBearing.from_catalogue` for those of `params.ROLLER_CATALOGUE`;
+    keyword arguments go to it (clearance, damping, cage, ball_force)."""
+    if designation in ROLLER_CATALOGUE:
+        return RollerBearing.from_catalogue(designation, **kwargs)
+    if designation in CATALOGUE:
+        return BallBearing.from_catalogue(designation, **kwargs)
+    raise ValueError(
+        f"bearing must be a BallBearing, a RollerBearing or one of the designations "
+        f"{sorted(CATALOGUE) + sorted(ROLLER_CATALOGUE)}; got {designation!r}."
+    )
+
+
 def xu2014(
     impact: bool = True,
     cage="kinematic",
@@ -75,6 +96,7 @@ def xu2014(
     crank_speed=20.0 * np.pi,
     contact_on=0.05,
     window_start=WINDOW_START,
+    bearing: str | AbstractBearing = "98205",
 ) -> Mechanism:
     """The paper's impact slider–crank (Tables 1–4), SI units.
 
@@ -86,7 +108,21 @@ def xu2014(
         crank_speed: [rad/s] (600 rpm). contact_on: time the contact is switched on [s].
         window_start: where the metrics' default window starts [s] (`WINDOW_START`, after the
             start-up transient); None: the whole span.
+        bearing: the crank–rod bearing: a catalogue designation (`params.CATALOGUE`: "98205",
+            the paper's SKF 98205; `params.ROLLER_CATALOGUE`: "NU205-estimated", a cylindrical
+            roller bearing of the same envelope, or "209"), built with ``cage``,
+            ``ball_force``, ``clearance`` and ``bearing_damping``; or a `BallBearing` or
+            `RollerBearing` itself, and then those four must keep their defaults.
     """
+    if isinstance(bearing, str):
+        bearing = _catalogue_bearing(
+            bearing, clearance=clearance, damping=bearing_damping, cage=cage, ball_force=ball_force
+        )
+    elif (cage, ball_force, clearance, bearing_damping) != ("kinematic", "paper", 0.04e-3, 300.0):
+        raise ValueError(
+            "xu2014: give cage, ball_force, clearance and bearing_damping to the bearing passed "
+            "as bearing=, not to xu2014."
+        )
     l2, l3 = CRANK_LENGTH, ROD_LENGTH
     bodies = (
         Body(0.75, 5.2e-4),  # crank
@@ -103,7 +139,7 @@ def xu2014(
     )
     x_target = l2 + l3 + 0.010
     forces = (
-        BearingJoint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), skf98205(cage, ball_force, clearance, bearing_damping)),
+        BearingJoint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), bearing),
         SpringDamper(
             GROUND, (x_target + SPRING_FREE_LENGTH, 0.0), 3, (0.0, 0.0), 100e3, 120.0, SPRING_FREE_LENGTH
         ),

@@ -13,7 +13,7 @@ and pushes with
 clamped at F_r >= 0 (a ball never pulls). The resultant F = sum_r F_r u_r (Eq. 28) acts on the
 outer-race body, -F on the inner-race body.
 
-Two variants of Eq. 9 (``BallBearing.ball_force``):
+Two variants of Eq. 9 (``AbstractBearing.ball_force``):
 - ``"paper"``: as printed; the damping term jumps on at first touch. Which balls touch is a
   discrete state (``engaged``) that `jaxbearing.simulate` switches at events (a ball engages when
   delta_r crosses 0 upwards and is released when delta_r falls below -`BALL_RELEASE`), so the
@@ -36,7 +36,8 @@ BALL_RELEASE = 1e-12  # [m] an engaged ball of the paper force is released at de
 
 
 class BearingParameters(Protocol):
-    """What the laws read of a bearing (`jaxbearing.params.BallBearing` has it; the laws do not
+    """What the laws read of a bearing (`jaxbearing.params.AbstractBearing`, so `BallBearing` and
+    `RollerBearing`, has it; the laws do not
     import the parameters, which import the laws)."""
 
     clearance: jax.Array  # P_d, diametral [m]
@@ -98,7 +99,7 @@ def ball_loads(
         eccentricity: e = r_j^P - r_i^P, inner-race centre relative to outer-race centre [m], (2,).
         eccentricity_rate: v = de/dt [m/s], (2,).
         cage_angle: phi_c [rad]; ball r sits at 2 pi (r-1)/N_b + phi_c.
-        bearing: the `BallBearing` parameters (variant chosen by ``bearing.ball_force``).
+        bearing: the bearing's parameters (variant chosen by ``bearing.ball_force``).
         engaged: (N_b,) bool, the balls that touch, for the paper force as switched by
             `jaxbearing.simulate` (module docstring); None: the balls with delta_r > 0.
             The smooth force ignores it.

@@ -31,6 +31,20 @@ and the two contacts of one ball act in series (Eq. 11):
 
     K_b = (1 / ((1/K_i)^(2/3) + (1/K_o)^(2/3)))^(3/2).
 
+A cylindrical roller touches its raceways along lines. Its load–deflection law is Palmgren's
+empirical one for bearing steel (Palmgren, *Ball and Roller Bearing Engineering*, 1959; Harris &
+Kotzalas, *Essential Concepts of Bearing Technology*, 5th ed., 2006, ch. 6): one contact of
+effective length l approaches by delta = 3.84e-5 Q^0.9 / l^0.8 (mm, N), independent of the
+curvatures, so a roller between two raceways (the contacts in series) carries
+
+    Q = K_r delta^(10/9),   K_r = 2^(-10/9) (3.84e-5)^(-10/9) l^(8/9)   [N/mm^(10/9), l in mm].
+
+The largest contact pressure of a point contact is p_max = 3 Q / (2 pi a b) with the ellipse's
+semi-axes a = a* (3 Q / (E' sum_rho))^(1/3), b = b* (...)^(1/3), a* = (2 kappa^2 E(m) / pi)^(1/3),
+b* = (2 E(m) / (pi kappa))^(1/3) (Harris & Kotzalas, ch. 6); of a line contact of length l,
+p_max = sqrt(Q E' sum_rho / (2 pi l)) (the contact half-width b = sqrt(8 Q / (pi l E' sum_rho))),
+E' = E / (1 - nu^2) as above.
+
 For the impact of two spheres (or circular profiles) of radii R_j, R_k (Eqs. 24–25):
 
     K_d = 4 / (3 pi (h_j + h_k)) * sqrt(R_j R_k / (R_j + R_k)),   h_u = (1 - nu_u^2) / (pi E_u).
@@ -62,7 +76,14 @@ __all__ = [
     "ball_stiffness",
     "bearing_stiffness",
     "impact_stiffness",
+    "roller_stiffness",
+    "roller_curvature_sums",
+    "point_contact_stress",
+    "line_contact_stress",
 ]
+
+# delta = 3.84e-5 Q^0.9 / l^0.8 [mm] (Q in N, l in mm) of one line contact between steel bodies
+PALMGREN_LINE = 3.84e-5
 
 def elliptic_integrals(m):
     """Complete elliptic integrals (K(m), E(m)) of parameter m = k^2, 0 <= m < 1.
@@ -318,3 +339,131 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
         rj, rk, ej, nj, ek, nk,
     )
     return _impact_stiffness(rj, rk, ej, nj, ek, nk)
+
+
+# --------------------------------------------------------------------------------------------
+# Rollers: line contact
+# --------------------------------------------------------------------------------------------
+
+
+@jax.jit
+def _roller_stiffness(length):
+    l_mm = 1e3 * length
+    k_mm = (2.0 * PALMGREN_LINE) ** (-10.0 / 9.0) * l_mm ** (8.0 / 9.0)  # [N/mm^(10/9)]
+    return k_mm * 1e3 ** (10.0 / 9.0)
+
+
+def roller_stiffness(roller_length):
+    """Load–deflection constant K_r [N/m^(10/9)] of a cylindrical roller between two steel
+    raceways (Q = K_r delta^(10/9), delta the roller's total compression): Palmgren's empirical
+    line-contact deflection delta = 3.84e-5 Q^0.9 / l^0.8 (mm, N) for each raceway contact,
+    the two contacts in series (module docstring). Valid for bearing steel only.
+
+    Args: roller_length: effective contact length l = L_we [m] (> 0): the roller's length
+    less its end chamfers or crown run-outs.
+
+    Example: l = 9.6 mm (Harris & Kotzalas' 209 cylindrical roller bearing) gives
+    K_r = 6.00e8 N/m^(10/9).
+    """
+    length = _checks.as_float(roller_length, "roller_length", "m")
+    _checks.check(lambda xp, length: [_checks.positive(xp, "roller_length", length, "m")], length)
+    return _roller_stiffness(length)
+
+
+@jax.jit
+def _roller_curvature_sums(d, dm):
+    gamma = d / dm
+    return 2.0 / (d * (1.0 - gamma)), 2.0 / (d * (1.0 + gamma))
+
+
+def roller_curvature_sums(roller_diameter, pitch_diameter):
+    """Curvature sums (sum_rho_i, sum_rho_o) [1/m] of a cylindrical roller's inner and outer
+    raceway contacts (radial bearing, gamma = D / d_m): sum_rho_i = 2 / (D (1 - gamma)),
+    sum_rho_o = 2 / (D (1 + gamma)) (roller radius D/2 against the raceway radii
+    (d_m -+ D)/2, the outer one concave). Args: roller_diameter D [m] (> 0), pitch_diameter
+    d_m [m] (> D)."""
+    d, dm = _checks.as_floats(
+        (roller_diameter, "roller_diameter", "m"), (pitch_diameter, "pitch_diameter", "m")
+    )
+    _checks.check(
+        lambda xp, d, dm: [
+            _checks.positive(xp, "roller_diameter", d, "m"), _checks.pitch_exceeds_ball(xp, dm, d)
+        ],
+        d, dm,
+    )
+    return _roller_curvature_sums(d, dm)
+
+
+# --------------------------------------------------------------------------------------------
+# Contact stress
+# --------------------------------------------------------------------------------------------
+
+
+@jax.jit
+def _point_contact_stress(q, rho, f, e, nu):
+    e_prime = e / (1.0 - nu * nu)
+    log_kappa = contact_shape(f)[0]
+    kappa = jnp.exp(log_kappa)
+    _, e_m = complete_elliptic(-jnp.expm1(-2.0 * log_kappa))
+    ab_star = jnp.cbrt(4.0 * kappa * e_m * e_m / (jnp.pi * jnp.pi))  # a* b*
+    ab = ab_star * jnp.cbrt(3.0 * q / (e_prime * rho)) ** 2
+    return 3.0 * q / (2.0 * jnp.pi * ab)
+
+
+def point_contact_stress(load, sum_rho, curvature_difference, youngs_modulus, poisson_ratio):
+    """Largest pressure p_max [Pa] of a Hertzian point contact under the load Q [N]:
+    p_max = 3 Q / (2 pi a b) (module docstring; Harris & Kotzalas, ch. 6), bodies of one
+    material.
+
+    Args: load Q [N] (>= 0); sum_rho [1/m] (> 0) and curvature_difference F(rho) in [0, 1)
+    (`curvature_sums`); youngs_modulus E [Pa]; poisson_ratio nu in (0, 0.5).
+    """
+    q, rho, f, e, nu = _checks.as_floats(
+        (load, "load", "N"),
+        (sum_rho, "sum_rho", "1/m"),
+        (curvature_difference, "curvature_difference", "-"),
+        (youngs_modulus, "youngs_modulus", "Pa"),
+        (poisson_ratio, "poisson_ratio", "-"),
+    )
+    _checks.check(
+        lambda xp, q, rho, f, e, nu: [
+            _checks.non_negative(xp, "load", q, "N"), _checks.positive(xp, "sum_rho", rho, "1/m")
+        ]
+        + _curvature_difference_rules(xp, f)
+        + _checks.material(xp, e, nu),
+        q, rho, f, e, nu,
+    )
+    return _point_contact_stress(q, rho, f, e, nu)
+
+
+@jax.jit
+def _line_contact_stress(q, length, rho, e, nu):
+    return jnp.sqrt(q * e / (1.0 - nu * nu) * rho / (2.0 * jnp.pi * length))
+
+
+def line_contact_stress(load, length, sum_rho, youngs_modulus, poisson_ratio):
+    """Largest pressure p_max = sqrt(Q E' sum_rho / (2 pi l)) [Pa] of a Hertzian line contact
+    of length l under the load Q, E' = E / (1 - nu^2), bodies of one material (module
+    docstring; Harris & Kotzalas, ch. 6). It ignores the rise at the ends of a roller that is
+    not crowned.
+
+    Args: load Q [N] (>= 0); length l [m] (> 0); sum_rho [1/m] (> 0,
+    `roller_curvature_sums`); youngs_modulus E [Pa]; poisson_ratio nu in (0, 0.5).
+    """
+    q, length, rho, e, nu = _checks.as_floats(
+        (load, "load", "N"),
+        (length, "length", "m"),
+        (sum_rho, "sum_rho", "1/m"),
+        (youngs_modulus, "youngs_modulus", "Pa"),
+        (poisson_ratio, "poisson_ratio", "-"),
+    )
+    _checks.check(
+        lambda xp, q, length, rho, e, nu: [
+            _checks.non_negative(xp, "load", q, "N"),
+            _checks.positive(xp, "length", length, "m"),
+            _checks.positive(xp, "sum_rho", rho, "1/m"),
+        ]
+        + _checks.material(xp, e, nu),
+        q, length, rho, e, nu,
+    )
+    return _line_contact_stress(q, length, rho, e, nu)

@@ -1,16 +1,21 @@
-"""Rolling-contact fatigue life of the bearing from simulated loads: the ISO 281 rating and
-Lundberg–Palmgren per-ball life. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
+"""Rolling-contact fatigue life and static capacity of the bearing from simulated loads: the
+ISO 281 rating (ball and roller bearings), Lundberg–Palmgren per-ball life, and the ISO 76
+static safety. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
 `jax.grad` (``log`` of a life is a smooth objective, e.g. against the clearance).
 
 Two levels:
 
-- **Laws on arrays** (testable on synthetic histories): `dynamic_load_rating`,
-  `load_rating_factor`, `revolution_weights`, `equivalent_load`, `rating_life`,
-  `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
-  `bearing_life`, `mean_speed_rpm`, `life_hours`.
+- **Ratings** from the geometry: ISO 281's `dynamic_load_rating` (balls) and
+  `roller_dynamic_load_rating` (rollers) with their tables (`load_rating_factor`,
+  `roller_load_rating_factor`), ISO 76's `static_load_rating` and `roller_static_load_rating`
+  (`static_load_factor`), and of a bearing's parameters `dynamic_rating`, `static_rating`.
+- **Laws on arrays** (testable on synthetic histories): `revolution_weights`,
+  `equivalent_load`, `rating_life`, `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
+  `bearing_life`, `mean_speed_rpm`, `life_hours`, `reliability_factor` (ISO 281's a1).
 - **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`, `l10_hours`, and
-  `metric`, the L10 life as a metric of sweeps. They apply the same rules to the integrals the
-  solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
+  `metric`, the L10 life as a metric of sweeps; `static_safety`, the ISO 76 static capacity
+  (C_0r, the peak equivalent static load, s_0 and the contact stress). The lives apply the
+  same rules to the integrals the solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
   accepted step's interpolant, per interval between the solve's stops), not to the output
   samples, so a life does not depend on ``ts``; the window's edges must be stops of the solve.
   `relative_speed` and `ring_point_loads` give the sampled histories (for plots, or the array
@@ -47,21 +52,33 @@ from ._formulas import (
     mean_speed_rpm,
     rating_life,
     revolution_weights,
+    reliability_factor,
     ring_equivalent_load,
     ring_life,
 )
 from ._ratings import (
     B_M,
+    B_M_ROLLER,
     FC_RATIO,
+    FC_ROLLER_RATIO,
+    FC_ROLLER_TABLE,
     FC_TABLE,
+    F0_RATIO,
+    F0_TABLE,
     ISO_REDUCTION,
     ball_race_load_ratings,
     dynamic_load_rating,
     load_rating_factor,
+    roller_dynamic_load_rating,
+    roller_load_rating_factor,
+    roller_static_load_rating,
+    static_load_factor,
+    static_load_rating,
 )
 from ._solution import (
     LPLife,
     RatingLife,
+    dynamic_rating,
     iso_life,
     l10_hours,
     lp_life,
@@ -69,18 +86,36 @@ from ._solution import (
     relative_speed,
     ring_point_loads,
 )
+from ._static import (
+    PERMISSIBLE_BALL,
+    PERMISSIBLE_ROLLER,
+    StaticSafety,
+    element_contact_stress,
+    static_rating,
+    static_safety,
+)
 
 __all__ = [
     "B_M",
+    "B_M_ROLLER",
     "FC_RATIO",
+    "FC_ROLLER_RATIO",
+    "FC_ROLLER_TABLE",
     "FC_TABLE",
+    "F0_RATIO",
+    "F0_TABLE",
     "ISO_REDUCTION",
     "LPLife",
+    "PERMISSIBLE_BALL",
+    "PERMISSIBLE_ROLLER",
     "RatingLife",
+    "StaticSafety",
     "ball_equivalent_load",
     "ball_race_load_ratings",
     "bearing_life",
     "dynamic_load_rating",
+    "dynamic_rating",
+    "element_contact_stress",
     "equivalent_load",
     "iso_life",
     "l10_hours",
@@ -91,8 +126,16 @@ __all__ = [
     "mean_speed_rpm",
     "rating_life",
     "relative_speed",
+    "reliability_factor",
     "revolution_weights",
     "ring_equivalent_load",
     "ring_life",
     "ring_point_loads",
+    "roller_dynamic_load_rating",
+    "roller_load_rating_factor",
+    "roller_static_load_rating",
+    "static_load_factor",
+    "static_load_rating",
+    "static_rating",
+    "static_safety",
 ]

@@ -169,6 +169,41 @@ def rating_life(load_rating, equivalent, exponent=3.0):
     return _safe_ratio(c**exponent, _safe_power(p, exponent))
 
 
+# ISO 281:2007, Table 12: life modification factor for reliability a1 (L_nm = a1 L10) at the
+# reliabilities 90 ... 99.95 %. Each entry is the standard's formula 0.95 (ln(1/R) /
+# ln(1/0.9))^(2/3) + 0.05 (a Weibull slope 1.5 and a life that never falls below 0.05 L10) to
+# the table's rounding (tests/test_rollers.py).
+A1_RELIABILITY = np.array(
+    [0.90, 0.95, 0.96, 0.97, 0.98, 0.99, 0.992, 0.994, 0.996, 0.998, 0.999, 0.9992, 0.9994, 0.9995]
+)
+A1_TABLE = np.array(
+    [1.0, 0.64, 0.55, 0.47, 0.37, 0.25, 0.22, 0.19, 0.16, 0.12, 0.093, 0.087, 0.080, 0.077]
+)
+
+
+def reliability_factor(reliability):
+    """Life modification factor for reliability a1 of ISO 281:2007 (Table 12), so that
+    L_nm = a1 L10 is the life that the fraction ``reliability`` of a population reaches (with
+    a_ISO = 1): 1 at 0.9, 0.25 at 0.99, 0.077 at 0.9995; linearly interpolated between the
+    table's entries.
+
+    Args: reliability: S in [0.9, 0.9995] (a fraction, not a percentage).
+    """
+    s = _checks.as_float(reliability, "reliability", "-")
+    _checks.check(
+        lambda xp, s: [
+            (
+                ~((s >= A1_RELIABILITY[0]) & (s <= A1_RELIABILITY[-1])),
+                "reliability must lie in [0.9, 0.9995] (ISO 281 Table 12; a fraction: 0.99 for "
+                "99 %)",
+                s,
+            )
+        ],
+        s,
+    )
+    return jnp.interp(s, jnp.asarray(A1_RELIABILITY), jnp.asarray(A1_TABLE))
+
+
 def mean_speed_rpm(ts, relative_speed, t_min=None, t_max=None):
     """Mean relative speed n = <|omega_inner - omega_outer|> 60 / (2 pi) [rpm] over the window
     (time average, trapezoid rule)."""

@@ -16,10 +16,11 @@ import jax.numpy as jnp
 from .._checks import is_concrete
 from ..metrics import WithModel, element_index, bearing_index, intervals_inside, reached, window_start
 from ..multibody.mechanism import Mechanism
+from ..params import BallBearing, RollerBearing
 from ..solution import (
     FAT_BALL_CUBED,
     FAT_BALL_TEN_THIRDS,
-    FAT_FORCE_CUBED,
+    FAT_FORCE_POWER,
     FAT_REVOLUTIONS,
     FAT_TIME,
     FORCE_SCALE,
@@ -33,17 +34,26 @@ from ._formulas import (
     _safe_ratio,
     life_hours,
     rating_life,
+    reliability_factor,
     ring_cube_mean,
 )
-from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_load_rating
+from ._ratings import (
+    B_M,
+    ISO_REDUCTION,
+    ball_race_load_ratings,
+    dynamic_load_rating,
+    roller_dynamic_load_rating,
+)
 
 
 class RatingLife(eqx.Module):
     """ISO 281 basic rating life of a simulated bearing (`iso_life`).
 
-    Fields: load_rating C_r [N]; equivalent_load P [N] (revolution-weighted cube mean of |F|);
-    l10 = (C_r/P)^3 [millions of relative revolutions]; speed n [rpm] (mean relative speed);
-    l10_hours [h]; revolutions: relative revolutions in the window.
+    Fields: load_rating C_r [N]; equivalent_load P [N] (revolution-weighted mean of |F|^p,
+    p = 3 for balls, 10/3 for rollers); l10 = (C_r/P)^p [millions of relative revolutions];
+    speed n [rpm] (mean relative speed); l10_hours [h]; revolutions: relative revolutions in
+    the window; a1: ISO 281's life modification factor for the reliability asked for;
+    lnm = a1 l10 [millions of relative revolutions] and lnm_hours [h].
     """
 
     load_rating: jax.Array
@@ -52,6 +62,9 @@ class RatingLife(eqx.Module):
     speed: jax.Array
     l10_hours: jax.Array
     revolutions: jax.Array
+    a1: jax.Array
+    lnm: jax.Array
+    lnm_hours: jax.Array
 
 
 class LPLife(eqx.Module):
@@ -60,7 +73,7 @@ class LPLife(eqx.Module):
     Fields: rating_inner, rating_outer: Q_ci, Q_co [N]; load_inner, load_outer: equivalent
     ball loads Q_e of each ring [N]; life_inner, life_outer: ring lives (Q_c/Q_e)^3 [millions of
     relative revolutions]; l10: bearing life [millions of relative revolutions]; speed n [rpm];
-    l10_hours [h].
+    l10_hours [h]; a1, lnm = a1 l10, lnm_hours: as `RatingLife`'s.
     """
 
     rating_inner: jax.Array
@@ -72,6 +85,9 @@ class LPLife(eqx.Module):
     l10: jax.Array
     speed: jax.Array
     l10_hours: jax.Array
+    a1: jax.Array
+    lnm: jax.Array
+    lnm_hours: jax.Array
 
 
 def _joint(model: Mechanism, bearing):
@@ -90,25 +106,41 @@ def relative_speed(sol: Solution, model: Mechanism, bearing=None) -> jax.Array:
     return jax.vmap(_joint(model, bearing).relative_speed)(sol.q, sol.qd)
 
 
-def _bearing_geometry(model: Mechanism, bearing):
-    """(Z, D, d_m) from the BallBearing's raceway diameters d_i = d_m - D, d_o = d_m + D."""
-    b = _joint(model, bearing).bearing
-    d = 0.5 * (b.outer_race_diameter - b.inner_race_diameter)
-    dm = 0.5 * (b.outer_race_diameter + b.inner_race_diameter)
-    return b.n_balls, d, dm
+def dynamic_rating(b) -> jax.Array:
+    """ISO 281's basic dynamic radial load rating C_r [N] of a bearing's parameters, by its
+    kind: `dynamic_load_rating` of a `BallBearing`, `roller_dynamic_load_rating` of a
+    `RollerBearing` (Z, D and d_m from the raceway diameters d_i = d_m - D, d_o = d_m + D)."""
+    if isinstance(b, RollerBearing):
+        return roller_dynamic_load_rating(
+            b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length
+        )
+    return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
 
 
-def _fatigue(sol: Solution, model: Mechanism, bearing) -> FatigueStats:
-    """The `FatigueStats` of bearing joint ``bearing`` (None: the only one) of ``sol``, a
-    solution of ``model``."""
+def _reliability(reliability, l10, n):
+    """(a1, L_nm = a1 L10, L_nm in hours at n [rpm])."""
+    a1 = reliability_factor(reliability)
+    return a1, a1 * l10, life_hours(a1 * l10, n)
+
+
+def _solved_joint(sol: Solution, model: Mechanism, bearing):
+    """The bearing joint ``bearing`` (None: the only one) of ``model``, checked to be the model
+    that produced ``sol``."""
     if not isinstance(sol, Solution):
         raise TypeError(f"sol must be a jaxbearing Solution, got {type(sol).__name__}.")
-    _joint(model, bearing)
+    joint = _joint(model, bearing)
     if sol.n_bearings != len(model.bearings):
         raise ValueError(
             f"sol has {sol.n_bearings} bearing joints and model {len(model.bearings)}: pass the "
             "model that produced the solution."
         )
+    return joint
+
+
+def _fatigue(sol: Solution, model: Mechanism, bearing) -> FatigueStats:
+    """The `FatigueStats` of bearing joint ``bearing`` (None: the only one) of ``sol``, a
+    solution of ``model``."""
+    _solved_joint(sol, model, bearing)
     stats = sol.bearings[bearing_index(sol, bearing)].fatigue
     if stats is None:
         raise ValueError(
@@ -120,12 +152,20 @@ def _fatigue(sol: Solution, model: Mechanism, bearing) -> FatigueStats:
 
 
 def iso_life(
-    sol: Solution, model: Mechanism, *, t_min="model", t_max=None, bearing=None
+    sol: Solution,
+    model: Mechanism,
+    *,
+    t_min="model",
+    t_max=None,
+    bearing=None,
+    reliability=0.9,
 ) -> RatingLife:
     """ISO 281 basic rating life of the simulated bearing: C_r from the bearing's geometry
-    (`dynamic_load_rating`, b_m = 1.3), P the revolution-weighted cube mean of the bearing
-    force magnitude over the window (`equivalent_load`'s rule), L10 = (C_r/P)^3, L10h at the
-    mean relative speed.
+    (`dynamic_load_rating`, b_m = 1.3, for a `BallBearing`; `roller_dynamic_load_rating`,
+    b_m = 1.1, for a `RollerBearing`), P the revolution-weighted mean of |F|^p of the bearing
+    force over the window (`equivalent_load`'s rule; p = 3 for balls, 10/3 for rollers),
+    L10 = (C_r/P)^p, L10h at the mean relative speed, and L_nm = a1 L10 at ``reliability``
+    (`reliability_factor`, ISO 281 Table 12).
 
     The means are integrals of the solution (``sol.fatigue``: Gauss–Legendre quadrature of each
     accepted step's interpolant), not of the output times.
@@ -133,17 +173,20 @@ def iso_life(
     Args: sol, model: a `simulate` result and the model that produced it; window t_min, t_max
     [s] ("model": the model's ``window_start``; None: unbounded), whose edges must be ends of
     the solve's stop intervals (t0, the model's ``window_start``, ``SolveOptions.window_edges``,
-    t1); bearing: index of the bearing joint in ``model.bearings`` (None: the only one).
+    t1); bearing: index of the bearing joint in ``model.bearings`` (None: the only one);
+    reliability: S in [0.9, 0.9995].
     """
     stats = _fatigue(sol, model, bearing)
-    z, d, dm = _bearing_geometry(model, bearing)
+    b = _joint(model, bearing).bearing
     integrals, _, _ = _window_integrals(sol, stats, t_min, t_max)
     revolutions = integrals[FAT_REVOLUTIONS]
-    c = dynamic_load_rating(z, d, dm)
-    p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_CUBED], revolutions), 1.0 / 3.0)
+    c = dynamic_rating(b)
+    exponent = b.life_exponent
+    p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_POWER], revolutions), 1.0 / exponent)
     n = 60.0 * revolutions / integrals[FAT_TIME]
-    l10 = rating_life(c, p)
-    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions)
+    l10 = rating_life(c, p, exponent)
+    lnm = _reliability(reliability, l10, n)
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *lnm)
 
 
 def _window_integrals(sol: Solution, stats: FatigueStats, t_min, t_max):
@@ -219,6 +262,7 @@ def lp_life(
     b_m=B_M,
     reduction=ISO_REDUCTION,
     bearing=None,
+    reliability=0.9,
 ) -> LPLife:
     """Lundberg–Palmgren life of the simulated bearing from its ball loads (Harris & Kotzalas).
 
@@ -259,6 +303,11 @@ def lp_life(
             `solution.RING_POINTS_PER_BALL`; None or that number.
         b_m, reduction: factors of the ratings, see `ball_race_load_ratings`.
         bearing: index of the bearing joint in ``model.bearings`` (None: the only one).
+        reliability: S in [0.9, 0.9995] of L_nm = a1 L10 (`reliability_factor`).
+
+    Ball bearings only: a `RollerBearing` is refused (its line contacts need the ring ratings
+    of Harris & Kotzalas with the load–life exponent 4, and ring-point records of Q^4, which
+    the solve does not keep); `iso_life` rates it.
     """
     if rotating not in (None, "inner", "outer"):
         raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
@@ -268,7 +317,15 @@ def lp_life(
             f"points_per_ball: the solution follows {RING_POINTS_PER_BALL} points of each ring "
             f"per ball (solution.RING_POINTS_PER_BALL); got {points_per_ball}."
         )
-    z, d, dm = _bearing_geometry(model, bearing)
+    b = _joint(model, bearing).bearing
+    if not isinstance(b, BallBearing):
+        raise ValueError(
+            f"lp_life rates ball bearings; this bearing is a {type(b).__name__}. The "
+            "Lundberg–Palmgren life of line contacts needs roller–raceway ratings with the "
+            "load–life exponent 4 (Harris & Kotzalas) and ring-point records of Q^4, which the "
+            "solve does not keep (the fatigue record holds cubes): use iso_life."
+        )
+    z, d, dm = b.n_balls, b.ball_diameter, b.pitch_diameter
     q_ci, q_co = ball_race_load_ratings(
         z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
     )
@@ -288,7 +345,7 @@ def lp_life(
     n = 60.0 * revolutions / integrals[FAT_TIME]
     return LPLife(
         q_ci, q_co, q_ei, q_eo, _safe_ratio(1.0, inv_i), _safe_ratio(1.0, inv_o), l10, n,
-        1e6 * l10 / (60.0 * n),
+        1e6 * l10 / (60.0 * n), *_reliability(reliability, l10, n),
     )  # fmt: skip
 
 

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 from .. import _checks
 from ..laws import bearing as bearing_law
 from ..laws import impact as impact_law
-from ..params import BallBearing, Impact
+from ..params import AbstractBearing, Impact
 from .bodies import GROUND, point_force, point_position, point_velocity, pose, rotate_back
 
 
@@ -71,7 +71,8 @@ def _angle_and_speed(q, qd, body: int):
 
 @final
 class BearingJoint(AbstractForceElement):
-    """A rolling ball bearing between an outer-race body (bush) and an inner-race body (journal).
+    """A rolling bearing (`BallBearing` or `RollerBearing`) between an outer-race body (bush)
+    and an inner-race body (journal).
 
     The race centres are body-frame points ``outer_point`` and ``inner_point`` [m] (Eq. 2).
     The resultant acts at the race centres: frictionless balls push along lines through the
@@ -83,7 +84,7 @@ class BearingJoint(AbstractForceElement):
     inner_body: int = eqx.field(static=True)
     outer_point: jax.Array
     inner_point: jax.Array
-    bearing: BallBearing
+    bearing: AbstractBearing
 
     def __init__(self, outer_body: int, outer_point, inner_body: int, inner_point, bearing):
         if outer_body == inner_body:
@@ -109,7 +110,7 @@ class BearingJoint(AbstractForceElement):
 
     def cage_angle(self, t, q, q0, qd0):
         """phi_c [rad]: kinematic (from the ring rotations since t = 0) or constant speed (Eq. 15
-        at the initial ring speeds), see `BallBearing.cage`."""
+        at the initial ring speeds), see `AbstractBearing.cage`."""
         if self.bearing.cage == "kinematic":
             # `pose` gives the ground's angle as 0
             inner = pose(q, self.inner_body)[1] - pose(q0, self.inner_body)[1]

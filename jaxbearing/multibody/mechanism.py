@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks, paths
-from ..params import BallBearing, Impact
+from ..params import AbstractBearing, Impact
 from .bodies import GROUND, Body
 from .constraints import AbstractJoint, JacobianRows, Revolute
 from .forces import AbstractForceElement, BearingJoint, CircleContact, ForceInputs, Gravity
@@ -147,7 +147,7 @@ class Mechanism(eqx.Module):
         return tuple(f for f in self.forces if isinstance(f, BearingJoint))
 
     @property
-    def bearing(self) -> BallBearing:
+    def bearing(self) -> AbstractBearing:
         """Parameters of the model's only bearing joint (``model.bearing.clearance`` etc.)."""
         bearings = self.bearings
         if len(bearings) != 1:

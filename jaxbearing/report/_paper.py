@@ -6,10 +6,12 @@ import math
 from collections.abc import Mapping
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
 from .. import life, metrics
 from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES, WINDOW_START
+from ..params import BallBearing
 from ..solution import Solution
 from ._series import as_series, ball_keys, contacts, first_contact, onsets, series
 
@@ -139,10 +141,19 @@ def _peaks(sol, t_min: float, windowed: bool) -> tuple:
 
 
 def _lives(sol, model, t_min: float) -> tuple:
-    """ISO 281 and Lundberg–Palmgren lives of `life_summary`."""
+    """ISO 281 and Lundberg–Palmgren lives and ISO 76 static safety of `life_summary`."""
     iso = life.iso_life(sol, model, t_min=t_min)
-    lp = life.lp_life(sol, model, groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER, t_min=t_min)
-    return iso.load_rating, iso.equivalent_load, iso.l10, iso.l10_hours, lp.l10, lp.l10_hours
+    grooves = dict(groove_inner=GROOVE_INNER, groove_outer=GROOVE_OUTER)
+    if isinstance(model.bearing, BallBearing):
+        lp = life.lp_life(sol, model, **grooves, t_min=t_min)
+        lp_lives = (lp.l10, lp.l10_hours)
+    else:  # Lundberg–Palmgren rates ball bearings only (`life.lp_life`)
+        lp_lives = (jnp.nan, jnp.nan)
+    static = life.static_safety(sol, model, t_min=t_min, **grooves)
+    return (
+        iso.load_rating, iso.equivalent_load, iso.l10, iso.l10_hours, *lp_lives,
+        static.c0, static.p0, static.s0, static.contact_stress, static.permissible_stress,
+    )  # fmt: skip
 
 
 _compiled_lives = eqx.filter_jit(_lives)
@@ -154,7 +165,11 @@ def _numbers(sol, model, t_min: float, windowed: bool) -> tuple:
     return _peaks(sol, t_min, windowed), None if model is None else _lives(sol, model, t_min)
 
 
-_LIFE_NAMES = ("load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours")
+_LIFE_NAMES = (
+    "load_rating_N", "equivalent_load_N", "l10_iso_mrev", "l10_iso_hours", "l10_lp_mrev", "l10_lp_hours",
+    "static_load_rating_N", "static_equivalent_load_N", "static_safety", "contact_stress_Pa",
+    "permissible_contact_stress_Pa",
+)  # fmt: skip
 
 
 def _life_dict(lives) -> dict:
@@ -165,9 +180,12 @@ def _life_dict(lives) -> dict:
 
 
 def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
-    """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^3 and Lundberg–Palmgren
-    with the case's groove ratios, in millions of relative revolutions and hours, over t >=
-    ``t_min``; NaN where the run ended before it."""
+    """Bearing life of an xu2014 run (`jaxbearing.life`): ISO 281 (C_r/P)^p and Lundberg–Palmgren
+    with the case's groove ratios (NaN for a roller bearing, which it does not rate), in
+    millions of relative revolutions and hours, and the ISO 76 static capacity
+    (`life.static_safety`: C_0r, the peak equivalent static load P_0r, s_0 and the most loaded
+    element's contact stress beside the permissible one), over t >= ``t_min``; NaN where the
+    run ended before it."""
     if float(sol.t_final) <= t_min:
         return _life_dict(None)
     return _life_dict(_compiled_lives(sol, model, float(t_min)))
@@ -213,6 +231,11 @@ def format_summary(label: str, s: Mapping) -> str:
         lines.append(
             f"  bearing life L10     ISO 281 {s['l10_iso_hours']:.3g} h (C_r {s['load_rating_N']:.0f} N, "
             f"P {s['equivalent_load_N']:.1f} N), Lundberg-Palmgren {s['l10_lp_hours']:.3g} h"
+        )
+        lines.append(
+            f"  static safety s0     {s['static_safety']:.3g} (C_0r {s['static_load_rating_N']:.0f} N, "
+            f"P_0r {s['static_equivalent_load_N']:.1f} N), contact stress "
+            f"{1e-6 * s['contact_stress_Pa']:.0f} MPa of {1e-6 * s['permissible_contact_stress_Pa']:.0f} MPa"
         )
     if "wall_first_s" in s:
         second = s.get("wall_second_s")
