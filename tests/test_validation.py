@@ -143,7 +143,10 @@ BAD_INPUTS = [
     (lambda: jb.Mechanism(jb.cases.four_bar().bodies, jb.cases.four_bar().joints[:3]
                           + (Revolute(GROUND, (0.9, 0.0), 2, (-0.125, 0.0)),), jb.cases.four_bar().q0,
                           forces=jb.cases.four_bar().forces, body_names=("crank", "coupler", "rocker")).assemble(),
-     r"assembly could not close joint \d \(Revolute, \w+–\w+\): its residual is [\d.e+-]+ \(m or rad\) after "
+     # which constraint is named depends on where the Gauss–Newton steps end, which for a loop
+     # that cannot close is chaotic: the rounding of the compiled program decides it
+     r"assembly could not close (joint \d \(Revolute|force \d \(BearingJoint), \w+–\w+\): its residual is "
+     r"[\d.e+-]+ \(m or rad\) after "
      r"Gauss–Newton steps\. Start q_guess nearer an assembled position, or check the joints' points and the "
      r"links' lengths \(they may not close at all\)\."),
     (lambda: Mechanism([Body(1.0, 0.1)] * 2, [Revolute(GROUND, (0.0, 0.0), 0, (-0.5, 0.0))]

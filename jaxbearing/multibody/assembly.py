@@ -9,10 +9,13 @@ projection's optimality conditions,
 
     q - q_guess + Phi_q^T lambda = 0,    Phi(q, t0) = 0,
 
-a square system that `optimistix.root_find` solves and differentiates by the implicit
-function theorem: a parameter that moves a joint point moves q0 accordingly. Velocities:
-qd0 is the velocity guess projected onto Phi_q qd + Phi_t = 0 (minimum-norm correction),
-which is linear and differentiable as it stands.
+a square system in (q, lambda). Its solution is differentiated by the implicit function
+theorem: where the model or the guess is traced, a last Newton step from the solution (held
+constant) carries dq0/dp = -K^-1 dF/dp (K the system's Jacobian), so that a parameter that moves
+a joint point moves q0 accordingly. Velocities: qd0 is the velocity guess projected onto
+Phi_q qd + Phi_t = 0 (minimum-norm correction), which is linear and differentiable as it stands.
+All of it is one compiled program (`_assembled`: two small loops), which the checks read on the
+host: assembling a small mechanism compiles once instead of running many one-operation programs.
 
 A constraint set whose Jacobian is rank-deficient at the assembly (redundant joints, e.g. an
 ideal `Revolute` beside a bearing at its points) is refused, naming the joints involved; so is
@@ -25,13 +28,13 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from .._checks import is_concrete
 from .forces import BearingJoint
 
 TOLERANCE = 1e-12  # [m or rad] residual of every assembly constraint at q0
 GAUSS_NEWTON_STEPS = 50  # Gauss–Newton steps onto the manifold before the projection's Newton
+PROJECTION_STEPS = 200  # most Gauss–Newton steps on the projection's optimality conditions
 RANK_TOLERANCE = 1e-9  # smallest / largest singular value of Phi_q below which it is rank-deficient
 
 
@@ -45,19 +48,14 @@ def assemble(model, q_guess=None, qd_guess=None, t0=0.0):
     for name, x in (("q_guess", q_guess), ("qd_guess", qd_guess)):
         if x.shape != (n,):
             raise ValueError(f"{name} must have shape ({n},) (x, y, theta per body); got {x.shape}.")
-    t0 = jnp.asarray(t0, jnp.float64)
     if not model.joints and not model.bearings:
         return _with_state(model, q_guess, qd_guess)
-    start = jax.lax.stop_gradient(_onto_manifold(model, q_guess, t0))
-    _check_closed(model, start, t0, "Gauss–Newton steps")
-    jac = constraint_jacobian(model, start, t0)
-    _check_rank(model, jac)
-    q = _projection(model, q_guess, t0, start, jac)
-    _check_closed(model, q, t0, "Newton steps on the projection")
-    jac = constraint_jacobian(model, q, t0)
-    rate = jac @ qd_guess + _time_derivatives(model, q, t0)
-    qd = qd_guess - jac.T @ jnp.linalg.solve(jac @ jac.T, rate)
-    return _with_state(model, q, qd)
+    traced = not is_concrete(*jax.tree_util.tree_leaves((model, q_guess, qd_guess, t0)))
+    found = _assembled(model, q_guess, qd_guess, jnp.asarray(t0, jnp.float64), traced)
+    _check_closed(model, found.start_residual, "Gauss–Newton steps")
+    _check_rank(model, found.start_jacobian)
+    _check_closed(model, found.residual, "Newton steps on the projection")
+    return _with_state(model, found.q, found.qd)
 
 
 def _with_state(model, q, qd):
@@ -71,14 +69,11 @@ def constraints(model, q, t) -> jax.Array:
     return jnp.concatenate(parts)
 
 
-def constraint_jacobian(model, q, t) -> jax.Array:
-    """d(`constraints`)/dq, (n_equations, n_coordinates)."""
-    return jax.jacfwd(constraints, argnums=1)(model, q, t)
-
-
-def _time_derivatives(model, q, t) -> jax.Array:
-    """d(`constraints`)/dt: the joints' Phi_t; 0 for the bearings."""
-    return jax.jacfwd(constraints, argnums=2)(model, q, t)
+def linearized(model, q, t):
+    """`constraints` at (q, t) [m or rad] with their derivatives d/dq (n_equations,
+    n_coordinates) and d/dt (the joints' Phi_t; 0 for the bearings), in one forward-mode pass."""
+    (jac, rate), phi = jax.jacfwd(lambda q, t: (constraints(model, q, t),) * 2, argnums=(0, 1), has_aux=True)(q, t)
+    return phi, jac, rate
 
 
 def labels(model) -> list[str]:
@@ -93,52 +88,97 @@ def labels(model) -> list[str]:
     return out
 
 
+class _Assembly(eqx.Module):
+    """What `_assembled` finds: the start on the manifold with its residual and Phi_q (for the
+    checks), the assembled q with its residual, and qd."""
+
+    start_residual: jax.Array
+    start_jacobian: jax.Array
+    q: jax.Array
+    residual: jax.Array
+    qd: jax.Array
+
+
 @eqx.filter_jit
+def _assembled(model, q_guess, qd_guess, t0, differentiable: bool) -> _Assembly:
+    """The assembly as one compiled program (a few small loops, compiled once, instead of many
+    one-operation programs): Gauss–Newton steps onto the manifold, Newton's method on the
+    projection, the velocities' projection. The checks read its result on the host.
+    ``differentiable`` (static; where any input is traced): the projection's last step carries
+    its derivative (`_projection`)."""
+    start = jax.lax.stop_gradient(_onto_manifold(model, q_guess, t0))
+    start_residual, jac, _ = linearized(model, start, t0)
+    q = _projection(model, q_guess, t0, start, jac, differentiable)
+    residual, jac_q, phi_t = linearized(model, q, t0)
+    qd = qd_guess - jac_q.T @ jnp.linalg.solve(jac_q @ jac_q.T, jac_q @ qd_guess + phi_t)
+    return _Assembly(start_residual, jac, q, residual, qd)
+
+
 def _onto_manifold(model, q, t0):
     """Gauss–Newton steps with minimum-norm corrections, dq = -Phi_q^T (Phi_q Phi_q^T)^-1 Phi,
-    until the residual is below `TOLERANCE` or `GAUSS_NEWTON_STEPS` are taken."""
+    until a step starts where the residual is below `TOLERANCE`, or `GAUSS_NEWTON_STEPS` are
+    taken."""
 
     def step(carry):
-        q, i = carry
-        jac = constraint_jacobian(model, q, t0)
-        phi = constraints(model, q, t0)
-        dq = jac.T @ jnp.linalg.lstsq(jac @ jac.T, phi)[0]
-        return q - dq, i + 1
+        q, _, i = carry
+        phi, jac, _ = linearized(model, q, t0)
+        return q - jac.T @ jnp.linalg.lstsq(jac @ jac.T, phi)[0], jnp.max(jnp.abs(phi)), i + 1
 
     def going(carry):
-        q, i = carry
-        return (jnp.max(jnp.abs(constraints(model, q, t0))) > TOLERANCE) & (i < GAUSS_NEWTON_STEPS)
+        _, residual, i = carry
+        return (residual > TOLERANCE) & (i < GAUSS_NEWTON_STEPS)
 
-    return jax.lax.while_loop(going, step, (q, 0))[0]
+    return jax.lax.while_loop(going, step, (q, jnp.inf, 0))[0]
 
 
-@eqx.filter_jit
-def _projection(model, q_guess, t0, start, jac):
-    """The point of the manifold nearest ``q_guess``: Newton's method on the optimality
-    conditions from ``start`` (on the manifold) and its multipliers' least-squares estimate;
-    differentiable in the model and the guess by the implicit function theorem."""
+def _projection(model, q_guess, t0, start, jac, differentiable: bool):
+    """The point of the manifold nearest ``q_guess``: from ``start`` (on the manifold) and its
+    multipliers' least-squares estimate, Gauss–Newton steps on the optimality conditions
+    F(q, lambda) = 0 (module docstring: `_newton_step` without the constraints' curvature, which
+    converges linearly to the same point and compiles much smaller), until a step starts where
+    they hold within `TOLERANCE`, or `PROJECTION_STEPS` are taken. If ``differentiable``, then
+    one Newton step from the point found, held constant, which carries the derivative in the
+    model and the guess: that of the implicit function theorem, -K^-1 dF/dp."""
     n = model.n_coordinates
 
-    def conditions(y, args):
-        model, q_guess = args
-        q, lam = y[:n], y[n:]
-        jac = constraint_jacobian(model, q, t0)
-        return jnp.concatenate([q - q_guess + jac.T @ lam, constraints(model, q, t0)])
+    def step(carry):
+        y, _, i = carry
+        dy, f = _newton_step(model, q_guess, t0, y, curvature=False)
+        return y + dy, jnp.max(jnp.abs(f)), i + 1
+
+    def going(carry):
+        _, residual, i = carry
+        return (residual > TOLERANCE) & (i < PROJECTION_STEPS)
 
     lam = -jnp.linalg.solve(jac @ jac.T, jac @ (start - q_guess))
-    solver = optx.Newton(rtol=1e-14, atol=TOLERANCE)
-    y0 = jnp.concatenate([start, jax.lax.stop_gradient(lam)])
-    found = optx.root_find(conditions, solver, y0, (model, q_guess), max_steps=50, throw=False)
-    return found.value[:n]
+    y0 = jax.lax.stop_gradient(jnp.concatenate([start, lam]))
+    found = jax.lax.stop_gradient(jax.lax.while_loop(going, step, (y0, jnp.inf, 0))[0])
+    if not differentiable:
+        return found[:n]
+    return (found + _newton_step(model, q_guess, t0, found, curvature=True)[0])[:n]
 
 
-def _check_closed(model, q, t0, method: str) -> None:
-    """A `ValueError` naming the assembly constraint with the largest residual, unless all are
-    below 1e3 `TOLERANCE` (checked where ``q`` is concrete)."""
-    residual = jnp.abs(constraints(model, q, t0))
+def _newton_step(model, q_guess, t0, y, curvature: bool):
+    """The step -K^-1 F at y = (q, lambda) on the projection's optimality conditions F, K held
+    constant: K = [[I + sum_i lambda_i Phi_i,qq, Phi_q^T], [Phi_q, 0]] (Newton's method), without
+    the sum unless ``curvature`` (Gauss–Newton); and F."""
+    n = model.n_coordinates
+    q, lam = y[:n], y[n:]
+    phi, jac, _ = linearized(model, q, t0)
+    upper = jnp.eye(n)
+    if curvature:
+        upper = upper + jax.hessian(lambda q: lam @ constraints(model, q, t0))(q)
+    k = jnp.block([[upper, jac.T], [jac, jnp.zeros((lam.size, lam.size))]])
+    f = jnp.concatenate([q - q_guess + jac.T @ lam, phi])
+    return -jnp.linalg.solve(jax.lax.stop_gradient(k), f), f
+
+
+def _check_closed(model, residual, method: str) -> None:
+    """A `ValueError` naming the assembly constraint with the largest ``residual`` (`constraints`
+    at the point found), unless all are below 1e3 `TOLERANCE` (checked where it is concrete)."""
     if not is_concrete(residual):
         return
-    residual = np.asarray(residual)
+    residual = np.abs(np.asarray(residual))
     worst = int(np.argmax(residual))
     if not residual[worst] <= 1e3 * TOLERANCE:  # also NaN
         raise ValueError(
