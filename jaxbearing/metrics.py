@@ -152,9 +152,11 @@ EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts
 def _inside(sol: Solution, t_min, t_max):
     """Which intervals of ``sol.segments`` lie in ``[t_min, t_max]``, and whether the window
     has a value: both edges are stops (or outside the solved span) and the run reached its end
-    (`reached`). ValueError or SimulationError when not and that is known in Python."""
-    inside, ok = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
-    return inside, ok & reached(sol, t_max)
+    (`reached`). SimulationError or ValueError when not and that is known in Python (a run
+    that stopped short first: what else is wrong with the window follows from that)."""
+    ok = reached(sol, t_max)
+    inside, on_stops = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+    return inside, ok & on_stops
 
 
 def reached(sol: Solution, t_max):

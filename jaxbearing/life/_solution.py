@@ -194,8 +194,9 @@ def _window_integrals(sol: Solution, stats: FatigueStats, t_min, t_max):
     NaN when the window's edges are not ends of the stop intervals or the run stopped before
     its end (`metrics.reached`) (traced). Raises when, concretely, the rings do not turn
     relative to each other in the window."""
-    inside, ok = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
-    ok = ok & reached(sol, t_max)
+    ok = reached(sol, t_max)  # first: a run that stopped short explains the rest
+    inside, on_stops = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
+    ok = ok & on_stops
 
     def total(x):
         return jnp.where(ok, jnp.sum(jnp.where(inside[:, None], x, 0.0), axis=0), jnp.nan)
