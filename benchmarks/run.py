@@ -1098,6 +1098,12 @@ def _jb():
 
 # What stands in the way of a target, where it is not met (from profiles of this run's kind).
 IN_THE_WAY = {
+    "jaxbearing/solve/ <= 1600 lines": (
+        "the records of every bearing joint and contact and of the user's own metrics (issue 63, "
+        "which lets solve/ grow for them), the constant step and the drift record (issue 64) "
+        "added to the core and its drivers; the next step is issue 63's third part, the engine "
+        "recording a pytree of record states instead of the application's columns"
+    ),
     "paper's first simulate <= 5x the reference's first call": (
         "XLA:CPU's backend compile of the solve is most of it (compile rows: trace_s, lower_s, "
         "compile_s): the loop body inlines the solver's stages of the Eq. 36 right-hand side, the "

@@ -147,6 +147,7 @@ def _empty_window(t_min, t_max, first, last, what):
 
 
 EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts as that end
+_END_IS = "the window's end, or None (to the end of the run)"
 
 
 def _inside(sol: Solution, t_min, t_max):
@@ -164,7 +165,9 @@ def reached(sol: Solution, t_max):
     asked for; a later t_max counts as t1). A run that stopped short (``throw=False``) has no
     metric there: a `SimulationError` saying when and why it stopped where that is known in
     Python; traced, False (the metric is NaN)."""
-    end = sol.t1 if t_max is None else jnp.minimum(jnp.asarray(t_max, jnp.float64), sol.t1)
+    if t_max is not None:
+        t_max = _window_edge("t_max", t_max, _END_IS)
+    end = sol.t1 if t_max is None else jnp.minimum(t_max, sol.t1)
     ok = sol.t_final >= end - EDGE_TOLERANCE
     if is_concrete(ok) and not bool(ok):
         why = RESULTS[sol.result] if is_concrete(sol.result._value) else "it failed"
@@ -196,7 +199,7 @@ def intervals_inside(stats, t_min, t_max, name: str):
     t_min = _window_edge("t_min", t_min, start_is)
     if t_max is None:
         t_max = jnp.inf
-    t_max = _window_edge("t_max", t_max, "the window's end, or None (to the end of the run)")
+    t_max = _window_edge("t_max", t_max, _END_IS)
     if is_concrete(t_min, t_max) and not t_max > t_min:
         raise ValueError(f"t_max must exceed t_min; got the window [{float(t_min)}, {float(t_max)}] s.")
     start = jnp.min(jnp.where(stats.valid, stats.t_start, jnp.inf))

@@ -36,7 +36,7 @@ import jax
 import jax.numpy as jnp
 
 from ..laws.bearing import BALL_RELEASE
-from ..solution import RESULTS, _forces, fatigue_sizes, n_integrals
+from ..solution import RESULTS, _forces, fatigue_sizes, n_integrals, peak_column
 from ._recording import Peaks, _add, _step_stats, no_peaks, point_peaks
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
@@ -289,7 +289,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
         spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
         n_onsets=jnp.asarray(0),
-        max_drift=_drift(model, t0, q),
+        max_drift=_drift(model, t0, y0),
         current=jnp.full(n_contacts, -1),
         events=jnp.asarray(0),
         steps=jnp.asarray(0),
@@ -491,9 +491,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         onsets=onsets,
         spans=spans,
         n_onsets=x.n_onsets + (onset & ~overflow),
-        max_drift=jnp.where(
-            row.recorded, jnp.maximum(x.max_drift, _drift(model, new.t, new.y[: model.n_coordinates])), x.max_drift
-        ),
+        max_drift=jnp.where(row.recorded, jnp.maximum(x.max_drift, _drift(model, new.t, new.y)), x.max_drift),
         current=current,
         events=x.events + o.located,
         steps=x.steps + stepped,
@@ -504,16 +502,16 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     return state, row
 
 
-def _drift(model, t, q):
-    """max |Phi(q, t)| [m or rad], the constraint violation (0 without joints)."""
+def _drift(model, t, y):
+    """max |Phi(q, t)| [m or rad], the constraint violation at y = [q, qd] (0 without joints)."""
     if not model.joints:
-        return jnp.zeros((), q.dtype)
-    return jnp.max(jnp.abs(model.constraints(q, t)))
+        return jnp.zeros((), y.dtype)
+    return jnp.max(jnp.abs(model.constraints(y[: model.n_coordinates], t)))
 
 
 def _contact_columns(model) -> slice:
     """The `Peaks` columns of the contacts' normal forces (`solution.peak_column`)."""
-    first = 2 * len(model.bearings)
+    first = peak_column("contact_force", 0, len(model.bearings), len(model.contacts))
     return slice(first, first + len(model.contacts))
 
 

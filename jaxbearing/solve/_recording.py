@@ -164,10 +164,10 @@ def _other_vertex(model, records, interpolation, times, args):
     (K + n + U,)."""
     approach, _, engaged = args
     n, k = model.n_coordinates, len(model.contacts)
-    forces = [
-        _contact_forces(model, times[c], y[:n], y[n:], approach, (c,))["contact_force"]
-        for c, y in ((c, interpolation.evaluate(times[c])) for c in range(k))
-    ]
+    forces = []
+    for c in range(k):
+        y = interpolation.evaluate(times[c])
+        forces.append(_contact_forces(model, times[c], y[:n], y[n:], approach, (c,))["contact_force"])
     displacements = jnp.abs(_coordinates_at(interpolation, n, times[k : k + n]) - model.q0)
     peaks = of_kind(records, "peak")
     values = []
