@@ -1,12 +1,12 @@
 """What recording every bearing and every contact costs a solver step (issue 63's targets).
 
-    python benchmarks/step_cost.py [--against REV] [--runs 10] [--json benchmarks/results.json]
+    python benchmarks/step_cost.py [--against REV] [--tree REV] [--runs 10] [--json benchmarks/results.json]
 
 Two comparisons, each between two worker processes that compile once and then run alternately
 (interleaved), so that both meet the same machine, and the fastest of ``--runs`` runs of each:
 
-- ``paper``: the paper's case with impact over 0-0.2 s (2001 output times) at this tree and at
-  ``--against`` (a commit, exported with ``git archive``): steps taken and rejected (equal),
+- ``paper``: the paper's case with impact over 0-0.2 s (2001 output times) at this working tree
+  (or the commit ``--tree``) and at ``--against`` (a commit, exported with ``git archive``): steps taken and rejected (equal),
   wall per step and its ratio (target <= `PAPER_RATIO`), and each worker's first call (trace,
   compile, run; cold, in a cache folder of its own: target no slower);
 - ``two_bearings``: the paper's slider–crank without impact over 0-0.2 s with a second SKF 98205
@@ -134,6 +134,7 @@ def _calibrator() -> float:
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--against", default=DEFAULT_AGAINST)
+    parser.add_argument("--tree", default=None, help="a commit in place of the working tree")
     parser.add_argument("--runs", type=int, default=10)
     parser.add_argument("--json", type=Path, default=ROOT / "benchmarks" / "results.json")
     args = parser.parse_args(argv)
@@ -142,9 +143,11 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         parent = _export(args.against, tmp / "parent")
-        here, there, new, old = _interleaved(("paper", ROOT, tmp / "c1"), ("paper", parent, tmp / "c2"), args.runs)
+        tree = ROOT if args.tree is None else _export(args.tree, tmp / "tree")
+        here, there, new, old = _interleaved(("paper", tree, tmp / "c1"), ("paper", parent, tmp / "c2"), args.runs)
         ratio = _per_step(new) / _per_step(old)
         results["paper"] = {
+            "tree": args.tree or "working tree",
             "against": args.against,
             "steps": [new[0]["steps"], old[0]["steps"]],
             "rejected": [new[0]["rejected"], old[0]["rejected"]],
@@ -160,7 +163,7 @@ def main(argv=None):
               f"(target <= {PAPER_RATIO}); first call {here.first['first']:.1f} s against "
               f"{there.first['first']:.1f} s", flush=True)  # fmt: skip
         two, one, runs_two, runs_one = _interleaved(
-            ("two_bearings", ROOT, tmp / "c3"), ("one_bearing", ROOT, tmp / "c4"), args.runs
+            ("two_bearings", tree, tmp / "c3"), ("one_bearing", tree, tmp / "c4"), args.runs
         )
         ratio = _per_step(runs_two) / _per_step(runs_one)
         results["two_bearings"] = {
@@ -175,7 +178,7 @@ def main(argv=None):
               f"steps): {ratio:.3f}x (target <= {TWO_BEARING_RATIO})", flush=True)  # fmt: skip
     stored = json.loads(args.json.read_text()) if args.json.exists() else {}
     stored["step_cost"] = results
-    args.json.write_text(json.dumps(stored, indent=1) + "\n")
+    args.json.write_text(json.dumps(stored, indent=2))  # as benchmarks/run.py writes it
 
 
 if __name__ == "__main__":
