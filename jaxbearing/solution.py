@@ -1,10 +1,9 @@
 """What `jaxbearing.simulate` returns, and what the metrics and the life read from it: the
 `Solution`, its `Contacts`, `SegmentStats` and `FatigueStats`, the result codes (`RESULTS`,
-`SimulationError`) and the columns of the statistics, each defined once, with what each holds
-at one state (`_forces`, `_integrands`, `_fatigue_integrands`).
-The integrator (`jaxbearing.solve`) writes these (`assemble`: the `Solution` from the solve's
-final state and its outputs; `raise_on_failure`: the error a result code stands for);
-`jaxbearing.metrics` and `jaxbearing.life` read them without importing the solver.
+`SimulationError`) and the columns of the statistics, each defined once.
+`jaxbearing.recorder` says what the columns hold at one state and makes the `Solution` of the
+solve's records; `raise_on_failure` is the error a result code stands for; `jaxbearing.metrics`
+and `jaxbearing.life` read the `Solution` without importing the solver.
 """
 
 from __future__ import annotations
@@ -22,7 +21,6 @@ import numpy as np
 
 from . import _checks
 from ._checks import is_concrete
-from .laws import bearing as bearing_law
 
 POWER = 16  # order p of the power integrals in `SegmentStats` (the smooth metrics' p)
 FORCE_SCALE = 1e3  # [N] forces are divided by it before the power p: no overflow below 1e22 N
@@ -235,17 +233,6 @@ class Instant(eqx.Module):
     contacts: tuple
 
 
-def instant(t, q, qd, f) -> Instant:
-    """The `Instant` at (t, q, qd) with forces ``f`` (`_forces`)."""
-    bearings = tuple(
-        BearingInstant(b["ball_loads"], b["bearing_force"], b["cage"]) for b in f["bearings"]
-    )
-    contacts = tuple(
-        ContactInstant(force, gap) for force, gap in zip(f["contact_force"], f["penetration"])
-    )
-    return Instant(t, q, qd, bearings, contacts)
-
-
 class AbstractRecord(eqx.Module):
     """A quantity of your own that the solve records from every accepted step (`metrics.Peak`,
     `metrics.Mean`): ``fn(model, x) -> scalar`` with ``x`` an `Instant`, over the window
@@ -434,126 +421,6 @@ class Solution(eqx.Module):
         return self.targets[0] if self.targets else None
 
 
-# What the solution holds at one state, which the solve evaluates at the output times and along
-# each step (`solve._recording`): the forces the outputs report, and the integrands and peak
-# candidates of the statistics' columns.
-
-
-def n_integrals(model, records=()) -> int:
-    """Columns of `SegmentStats.integrals` (`integral_column`) for ``model`` and ``records``."""
-    return 3 * len(model.bearings) + len(model.contacts) + len(of_kind(records, "mean")) + 1
-
-
-def of_kind(records, reduction: str) -> tuple:
-    """The (name, record) pairs of ``records`` whose ``reduction`` is ``reduction``."""
-    return tuple((name, r) for name, r in records if r.reduction == reduction)
-
-
-def record_values(model, records, reduction: str, t, q, qd, f) -> jax.Array:
-    """The values (U,) of the ``records`` of that ``reduction`` at (t, q, qd) with forces
-    ``f``."""
-    chosen = of_kind(records, reduction)
-    if not chosen:
-        return jnp.zeros((0,), q.dtype)
-    x = instant(t, q, qd, f)
-    return jnp.stack([r.value(model, x) for _, r in chosen])
-
-
-def _forces(model, t, q, qd, approach_speeds, engaged):
-    """Forces that the outputs and the metrics report: ``bearings``, a tuple with each bearing
-    joint's ``ball_loads`` (N_b,) [N], ``cage`` [rad] and ``bearing_force`` (2,) [N]; and
-    ``contact_force`` (K,) [N] and ``penetration`` (K,) [m] of the impact contacts."""
-    return {
-        "bearings": tuple(
-            _bearing_forces(model, b, t, q, qd, engaged) for b in range(len(model.bearings))
-        ),
-        **_contact_forces(model, t, q, qd, approach_speeds),
-    }
-
-
-def _bearing_forces(model, b, t, q, qd, engaged):
-    """Bearing joint ``b``'s part of `_forces`."""
-    joint = model.bearings[b]
-    switches = model.engaged_by_bearing(engaged)[b]
-    loads, cage = joint.ball_loads(t, q, qd, model.q0, model.qd0, switches)
-    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
-
-
-def _contact_forces(model, t, q, qd, approach_speeds, contacts=None):
-    """The impact contacts' part of `_forces` (those of ``contacts``, indices; None: all)."""
-    chosen = range(len(model.contacts)) if contacts is None else contacts
-    force = [model.contacts[c].forces(t, q, qd, approach_speeds[c])[0] for c in chosen]
-    gap = [model.contacts[c].gap(q, qd)[0] for c in chosen]
-    stack = lambda x: jnp.stack(x) if x else jnp.zeros((0,), q.dtype)  # noqa: E731
-    return {"contact_force": stack(force), "penetration": stack(gap)}
-
-
-def _peaks(model, q, f):
-    """The peak candidates (2 B + K + n,) of `SegmentStats` at one state with forces ``f``."""
-    bearings = [
-        jnp.stack([jnp.max(b["ball_loads"]), _magnitude(b)]) for b in f["bearings"]
-    ]
-    return jnp.concatenate([*bearings, f["contact_force"], jnp.abs(q - model.q0)])
-
-
-def _squared(b):
-    """|F|^2 [N^2] of the resultant of a bearing's forces ``b``."""
-    resultant = b["bearing_force"]
-    return jnp.sum(resultant * resultant)
-
-
-def _magnitude(b):
-    """|F| [N] of the resultant of a bearing's forces ``b``."""
-    return jnp.sqrt(_squared(b) + 1e-30)
-
-
-def _integrands(t, f, means):
-    """The integrands (`n_integrals`,) of `SegmentStats` at one state with forces ``f`` and the
-    values ``means`` of the records to average."""
-    bearings = [
-        jnp.stack(
-            [
-                _squared(b),
-                jnp.sum((b["ball_loads"] / FORCE_SCALE) ** POWER),
-                (_magnitude(b) / FORCE_SCALE) ** POWER,
-            ]
-        )
-        for b in f["bearings"]
-    ]
-    contacts = (f["contact_force"] / FORCE_SCALE) ** POWER
-    return jnp.concatenate([*bearings, contacts, means, jnp.ones_like(t)[None]])
-
-
-def _fatigue_integrands(model, q, qd, f):
-    """The integrands of `FatigueStats` at one state with forces ``f``: each bearing joint's
-    5 + 2 M in turn (`fatigue_sizes`)."""
-    per_bearing = []
-    for joint, b in zip(model.bearings, f["bearings"]):
-        w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
-        balls = b["ball_loads"] / FORCE_SCALE
-        force = b["bearing_force"] / FORCE_SCALE
-        points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
-        scalars = jnp.stack(
-            [
-                jnp.ones_like(w),
-                w,
-                w * jnp.sum(force * force) ** (0.5 * joint.bearing.life_exponent),
-                w * jnp.mean(balls**3),
-                w * jnp.mean(balls ** (10.0 / 3.0)),
-            ]
-        )
-        per_bearing += [scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)]
-    return jnp.concatenate(per_bearing) if per_bearing else jnp.zeros((0,), q.dtype)
-
-
-def fatigue_sizes(model, fatigue: bool) -> tuple[int, ...]:
-    """Lengths of each bearing joint's `FatigueStats` integrands, 5 + 2 M (M ring points);
-    empty where they are not recorded."""
-    if not fatigue:
-        return ()
-    return tuple(5 + 2 * RING_POINTS_PER_BALL * j.bearing.n_balls for j in model.bearings)
-
-
 _PER_TIME = ("ts", "q", "qd", "qdd", "contact_forces", "penetrations", "approach_speed", "drift")
 _PER_TIME_BEARING = ("ball_loads", "force", "cage_angle")
 
@@ -570,95 +437,6 @@ def map_per_time(fn, sol: Solution, *more: Solution) -> Solution:
         for i, b in enumerate(sol.bearings)
     )
     return dataclasses.replace(sol, bearings=bearings, **mapped(sol, more, _PER_TIME))
-
-
-def assemble(model, x, outputs: dict, ts, stops, t0, result, n_segments, records=()) -> Solution:
-    """The `Solution` of a solve of ``model`` that ended in state ``x`` (the integrator core's
-    `State`) with ``result``: the per-time fields from ``outputs`` (at the output times ``ts``:
-    ``q``, ``qd``, ``qdd``, ``drift``, ``approach`` and the forces, keyed as `_forces` keys
-    them), and from ``x`` the records: `SegmentStats` and each bearing's `FatigueStats` of the
-    intervals between the ``stops`` [s] after t0, cut at the time reached (peaks 0 and their
-    times NaN in the intervals not reached), the `Contacts`, and the value of each of the
-    ``records`` ((name, `AbstractRecord`), ...) over its window."""
-    t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)
-    t_end = jnp.minimum(stops, x.t)
-    valid = t_end > t_start  # the interval holds part of the solved span
-    reached = lambda rows, rest: jnp.where(valid[:, None], rows, rest)  # noqa: E731
-    peaks = x.peaks
-    segments = SegmentStats(
-        t_start,
-        t_end,
-        reached(peaks.values, 0.0),
-        x.integrals,
-        valid,
-        reached(peaks.times, jnp.nan),
-        tuple(reached(loads, 0.0) for loads in peaks.loads),
-    )
-    sizes = fatigue_sizes(model, x.fatigue.shape[-1] > 0)
-    ends = [sum(sizes[:i]) for i in range(len(sizes) + 1)]
-    bearings = []
-    for b in range(len(model.bearings)):
-        fatigue = None
-        if sizes:
-            stats = x.fatigue[:, ends[b] : ends[b + 1]]
-            m = (sizes[b] - 5) // 2
-            inner, outer = stats[:, 5 : 5 + m], stats[:, 5 + m :]
-            fatigue = FatigueStats(t_start, t_end, stats[:, :5], inner, outer, valid)
-        f = outputs["bearings"][b]
-        bearings.append(BearingResult(f["ball_loads"], f["bearing_force"], f["cage"], fatigue))
-    o = outputs
-    sol = Solution(
-        ts=ts,
-        q=o["q"],
-        qd=o["qd"],
-        qdd=o["qdd"],
-        bearings=tuple(bearings),
-        contact_forces=o["contact_force"],
-        penetrations=o["penetration"],
-        approach_speed=o["approach"],
-        drift=o["drift"],
-        contacts=_contacts(x),
-        segments=segments,
-        result=result,
-        t_final=x.t,
-        t1=stops[-1],
-        max_drift=x.max_drift,
-        num_steps=x.steps,
-        num_rejected_steps=x.rejected,
-        num_segments=n_segments,
-        num_events=x.events,
-        window_start=model.window_start,
-        targets=tuple(3 * c.body_k for c in model.contacts),
-        declared=tuple(records),
-        records={},
-    )
-    first = {
-        "peak": 2 * len(model.bearings) + len(model.contacts) + model.n_coordinates,
-        "mean": 3 * len(model.bearings) + len(model.contacts),
-    }
-    values = {}
-    for reduction, start in first.items():
-        for u, (name, record) in enumerate(of_kind(records, reduction)):
-            values[name] = record.read(sol, start + u)
-    return dataclasses.replace(sol, records=values)
-
-
-def _contacts(x) -> Contacts:
-    """The `Contacts` of the core's final state ``x``: its onsets (time, approach speed, contact
-    index) and their contacts' spans (end, peak force, peak time), each (max_onsets,)."""
-    time, speed, index = x.onsets
-    kept = jnp.arange(time.shape[0]) < x.n_onsets
-    end, peak, peak_time = x.spans
-    found = kept & (peak > -jnp.inf)
-    return Contacts(
-        jnp.where(kept, time, jnp.nan),
-        jnp.where(kept, speed, jnp.nan),
-        jnp.where(kept, index, -1),
-        kept,
-        jnp.where(kept, end, jnp.nan),
-        jnp.where(found, peak, jnp.nan),
-        jnp.where(found, peak_time, jnp.nan),
-    )
 
 
 @functools.partial(jax.jit, static_argnums=1)

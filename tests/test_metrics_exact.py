@@ -134,9 +134,9 @@ def test_peaks_lie_between_the_recorded_points(dense):
 
 @pytest.mark.parametrize("solver", [diffrax.Tsit5(), diffrax.Dopri5(), jb.kvaerno5()])
 def test_each_coordinate_of_an_interpolant_alone(solver):
-    """`_recording._coordinates_at` evaluates each coordinate's interpolant by itself, cut from
+    """`recorder._coordinates_at` evaluates each coordinate's interpolant by itself, cut from
     the step's dense information: it equals that coordinate of the whole state's interpolant."""
-    from jaxbearing.solve._recording import _coordinates_at
+    from jaxbearing.recorder import _coordinates_at
 
     n = 3
     matrix = jnp.asarray(np.random.default_rng(0).normal(size=(2 * n, 2 * n)))

@@ -11,8 +11,8 @@ smooth. An iteration is either
   controller's proposed time, cut at the next stop; the step-size controller
   (``adapt_step_size``) accepts or rejects it. An accepted step after which an event value is
   positive is not taken: its member locates the event in the next iterations. Otherwise the
-  step is recorded: its `SegmentStats` and `FatigueStats` (`_recording._step_stats`), and the
-  dense row the outputs are read from (`Row`);
+  step is recorded: its peaks and integrals (`_recording.step_stats`, columns the
+  `AbstractRecorder` defines), and the dense row the outputs are read from (`Row`);
 - or one step of the ITP root finder (`itp_step`) on the held step's interpolant. When the
   bracket is narrower than `EVENT_TIME_TOLERANCE`, the step is recorded up to the event time
   (the bracket's upper end, where the event value is across zero), what the event found is
@@ -36,8 +36,8 @@ import jax
 import jax.numpy as jnp
 
 from ..laws.bearing import BALL_RELEASE
-from ..solution import RESULTS, _forces, fatigue_sizes, n_integrals, peak_column
-from ._recording import Peaks, _add, _step_stats, no_peaks, point_peaks
+from ..solution import RESULTS
+from ._recording import AbstractRecorder, Peaks, Records, add_peaks, no_peaks, no_records, point_peaks, step_stats
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] width of the bracket that locates an event time
@@ -187,8 +187,7 @@ class Setup(NamedTuple):
     stops: jax.Array  # (n_stops,) step ends [s], increasing; the last is t1
     t1: jax.Array  # [s]
     max_steps: jax.Array  # int: steps (accepted and rejected) the run may take
-    fatigue: bool  # record `FatigueStats` integrals
-    records: tuple  # ((name, `solution.AbstractRecord`), ...): metrics of the user's to record
+    recorder: AbstractRecorder  # what each step records
 
 
 class State(NamedTuple):
@@ -211,9 +210,7 @@ class State(NamedTuple):
     step_h: jax.Array  # [s] the step the controller proposed after it
     root: ITPState
     root_steps: jax.Array
-    peaks: Peaks  # (n_stops, ...) peaks of each stop interval so far (`SegmentStats`)
-    integrals: jax.Array  # (n_stops, `n_integrals`)
-    fatigue: jax.Array  # (n_stops, sum of `fatigue_sizes`) `FatigueStats` integrals
+    records: Records  # peaks and integrals of each stop interval so far
     onsets: tuple  # (time, approach speed, contact index) of each onset, each (max_onsets,)
     spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact
     n_onsets: jax.Array
@@ -245,15 +242,15 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     recorded in the first interval; done at once, with `RESULTS.invalid_input`, where
     ``invalid`` (a rule of the run is broken)."""
     model = s.model
-    n, n_contacts = model.n_coordinates, len(model.contacts)
+    n_contacts = len(model.contacts)
     approach = jnp.zeros(n_contacts)
     in_contact = jnp.zeros(n_contacts, bool)
     engaged = model.ball_deflections(t0, model.q0) > 0.0
     args = (approach, in_contact, engaged)
-    q, qd = y0[:n], y0[n:]
-    start = point_peaks(model, s.records, t0, q, qd, _forces(model, t0, q, qd, approach, engaged))
-    rows = s.stops.shape[:1]
-    peaks = jax.tree_util.tree_map(lambda x, v: x.at[0].set(v), no_peaks(model, s.records, rows), start)
+    observed = s.recorder.observe(t0, y0, (approach, engaged))
+    empty = no_records(s.recorder, s.stops.shape[0])
+    first = lambda x, v: x.at[0].set(v)  # noqa: E731
+    peaks = jax.tree_util.tree_map(first, empty.peaks, point_peaks(s.recorder, t0, y0, observed))
     error_order = s.solver.error_order(s.term)
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
@@ -283,9 +280,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         step_h=zero,
         root=ITPState(zero, zero, zero, zero, jnp.zeros((), bool), zero, zero, zero),
         root_steps=jnp.asarray(0),
-        peaks=peaks,
-        integrals=jnp.zeros(rows + (n_integrals(model, s.records),)),
-        fatigue=jnp.zeros(rows + (sum(fatigue_sizes(model, s.fatigue)),)),
+        records=empty._replace(peaks=peaks),
         onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
         spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
         n_onsets=jnp.asarray(0),
@@ -461,22 +456,23 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         new, o = _attempt(s, x)
     row = o.row
     here = jnp.arange(s.stops.shape[0]) == x.cell
-    rows = jax.tree_util.tree_map(lambda a: _row(a, here), (x.peaks, x.integrals, x.fatigue))
-    stats = jax.lax.cond(
+    peaks, integrals = jax.tree_util.tree_map(lambda a: _row(a, here), x.records)
+    step_peaks, step_integrals = jax.lax.cond(
         row.recorded,
-        lambda: _step_stats(
-            model, s.records, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
-            _args(x), s.fatigue, _running(model, x, rows[0]),
+        lambda: step_stats(
+            s.recorder, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
+            (row.approach, row.engaged), _running(s, x, peaks),
         ),
-        lambda: (no_peaks(model, s.records), jnp.zeros_like(rows[1]), jnp.zeros_like(rows[2])),
+        lambda: (no_peaks(s.recorder), jnp.zeros_like(integrals)),
     )
-    rows = _select(row.recorded, _add(rows, stats), rows)
+    rows = Records(add_peaks(s.recorder.carried_columns, peaks, step_peaks), integrals + step_integrals)
+    rows = _select(row.recorded, rows, Records(peaks, integrals))
     into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731
     onset = o.located & o.onset[3]
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])
     slot = onset & (jnp.arange(x.onsets[0].shape[0]) == x.n_onsets)
     onsets = tuple(jnp.where(slot, v, a) for a, v in zip(x.onsets, o.onset[:3]))
-    spans, current = _spans(model, x, row.recorded, stats[0], o.separated, new.t, onset, o.onset[2])
+    spans, current = _spans(s, x, row.recorded, step_peaks, o.separated, new.t, onset, o.onset[2])
     reached = o.at_stop & (_stop(s, x) >= s.t1)
     stepped = ~x.locating  # a step attempt (`_attempt`), which counts against max_steps
     out_of_steps = stepped & (x.steps + 1 >= s.max_steps) & ~reached
@@ -485,9 +481,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     failed = failure != RESULTS.successful
     state = new._replace(
         cell=x.cell + (o.at_stop & ~reached),
-        peaks=jax.tree_util.tree_map(into, x.peaks, rows[0]),
-        integrals=into(x.integrals, rows[1]),
-        fatigue=into(x.fatigue, rows[2]),
+        records=jax.tree_util.tree_map(into, x.records, rows),
         onsets=onsets,
         spans=spans,
         n_onsets=x.n_onsets + (onset & ~overflow),
@@ -509,10 +503,13 @@ def _drift(model, t, y):
     return jnp.max(jnp.abs(model.constraints(y[: model.n_coordinates], t)))
 
 
-def _contact_columns(model) -> slice:
-    """The `Peaks` columns of the contacts' normal forces (`solution.peak_column`)."""
-    first = peak_column("contact_force", 0, len(model.bearings), len(model.contacts))
-    return slice(first, first + len(model.contacts))
+def _contact_columns(s: Setup):
+    """The `Peaks` columns of the contacts' normal forces (`AbstractRecorder.contact_columns`):
+    a slice where they are consecutive (no gather), else their indices."""
+    columns = s.recorder.contact_columns
+    if columns == tuple(range(columns[0], columns[0] + len(columns))):
+        return slice(columns[0], columns[0] + len(columns))
+    return jnp.asarray(columns)
 
 
 def _in_slot(x: State):
@@ -521,19 +518,19 @@ def _in_slot(x: State):
     return (slots[None, :] == x.current[:, None]) & x.in_contact[:, None]
 
 
-def _running(model, x: State, peaks: Peaks) -> Peaks:
+def _running(s: Setup, x: State, peaks: Peaks) -> Peaks:
     """The peaks so far that decide whether a step is refined between its points: the stop
     interval's, and for each contact's force the lower of that and its current contact's so far
     (-inf outside a contact), so that both peaks are the interpolant's."""
     if not x.current.shape[0]:
         return peaks
     so_far = jnp.max(jnp.where(_in_slot(x), x.spans[1][None, :], -jnp.inf), axis=1)
-    columns = _contact_columns(model)
+    columns = _contact_columns(s)
     contact = jnp.minimum(peaks.values[columns], so_far)
     return peaks._replace(values=peaks.values.at[columns].set(contact))
 
 
-def _spans(model, x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
+def _spans(s: Setup, x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
     """``spans`` and ``current`` after an iteration: each contact's peak in a recorded step
     (``peaks``: the step's) joins its current contact's, the contacts that ``separated`` end at
     ``t_event``, and an ``onset`` of contact ``index`` takes the next slot."""
@@ -541,7 +538,7 @@ def _spans(model, x: State, recorded, peaks: Peaks, separated, t_event, onset, i
         return x.spans, x.current
     slots = jnp.arange(x.spans[0].shape[0])
     end, peak, peak_time = x.spans
-    columns = _contact_columns(model)
+    columns = _contact_columns(s)
     match = _in_slot(x)  # at most one contact per slot
     value = jnp.max(jnp.where(match, peaks.values[columns][:, None], -jnp.inf), axis=0)
     when = jnp.sum(jnp.where(match, peaks.times[columns][:, None], 0.0), axis=0)

@@ -82,7 +82,7 @@ def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fa
         jax.lax.dynamic_slice_in_dim(x, start, size) for x in ends
     )
     sol = solution(
-        model, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
-        jnp.asarray(1), records,
+        setup.recorder, jnp.stack([t0, final.t]), setup.stops, t0, final, final.result, rows, 2, 2,
+        jnp.asarray(1),
     )
     return sol, broken

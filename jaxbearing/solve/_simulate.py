@@ -6,10 +6,12 @@ or a step of the event's root finder, and the records of each step taken) in seg
 reverse- and forward-mode differentiable, vmappable) whose segments are `eqxi.while_loop`s. A
 run that needs more segments than that fails loudly.
 
-While it integrates, the core records the peaks and integrals that `jaxbearing.metrics` needs
-(`SegmentStats`), from every accepted step and the step's interpolant, so that the metrics do
-not depend on the output times; and the bearing life's integrals (`FatigueStats`). Both are kept
-per interval between stops (the model's ``window_start``, the window edges asked for, t1).
+While it integrates, the core records what `jaxbearing.recorder.Recorder` defines: the peaks
+and integrals that `jaxbearing.metrics` needs (`SegmentStats`), from every accepted step and the
+step's interpolant, so that the metrics do not depend on the output times, and the bearing
+life's integrals (`FatigueStats`), per interval between stops (the model's ``window_start``,
+the window edges asked for, t1). The engine (`_core`, `_recording`, `_segments`) knows only
+columns; the recorder says what they hold and makes the `Solution` of them.
 """
 
 from __future__ import annotations
@@ -29,13 +31,11 @@ import optimistix as optx
 from .. import _checks
 from .._checks import is_concrete
 from ..multibody.mechanism import Mechanism
-from ..solution import (
-    RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure, warn_if_drifting,
-)  # fmt: skip
+from ..recorder import Recorder
+from ..solution import RESULTS, Solution, first_rows, raise_on_failure, warn_if_drifting
 from ._progress import label_key
 from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
 from ._options import SolveOptions, record_edges
-from ._recording import _accelerations
 from ._segments import (
     Driver,
     initial_carry,
@@ -264,6 +264,14 @@ def _checked_options(options) -> SolveOptions:
     return options
 
 
+@jax.jit
+def _accelerations(model, t, q, qd, approach_speeds, engaged):
+    """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
+    it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
+    call, so the compiled program is unchanged."""
+    return model.accelerations(t, q, qd, approach_speeds, engaged, sparse=True)
+
+
 def core_start(
     model, t0, t1, dt0, ts, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets, kind
 ):
@@ -286,8 +294,7 @@ def core_start(
         stops=_stops(t0, t1, extra_stops),
         t1=t1,
         max_steps=max_steps,
-        fatigue=fatigue,
-        records=records,
+        recorder=Recorder(model, records, fatigue),
     )
     broken = _checks.broken(_checks.start_rules(model, t0, t1, ts))
     y0 = jnp.concatenate([model.q0, model.qd0])
@@ -311,16 +318,15 @@ def _simulate(
     x = final.state
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
     sol = solution(
-        model, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
+        setup.recorder, ts, setup.stops, t0, x, result, functools.partial(output_rows, final),
         final.written, final.written // block * block, jnp.sum(used),  # full blocks: evaluated
-        records,
     )
     return sol, broken
 
 
-def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments, records) -> Solution:
-    """The `Solution` (`jaxbearing.solution.assemble`) of a run that ended in state ``x``
-    (`_core.State`) with ``result``: its records, and the outputs at every output time, evaluated
+def solution(recorder, ts, stops, t0, x, result, rows, written, full, n_segments) -> Solution:
+    """The `Solution` (`Recorder.solution`) of a run that ended in state ``x`` (`_core.State`)
+    with ``result``: its records, and the outputs at every output time (`Recorder.outputs`), evaluated
     from the states, approach speeds and engaged balls there in batches of `OUTPUT_BATCH` times
     (vmapped): NaN at the times after the first ``written`` (the run did not reach them).
 
@@ -331,18 +337,15 @@ def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments, r
     no NaN enters a derivative (their outputs become NaN). Each batch is written in place into
     the outputs; the last one ends at T and so overlaps its predecessor, whose rows it evaluates
     again, identically (no remainder to evaluate and concatenate apart)."""
+    model = recorder.model
     n, T = model.n_coordinates, ts.shape[0]
     batch = min(OUTPUT_BATCH, T)
     index = jnp.arange(batch)
 
     def at(t, y, a, e):
         # outputs at one time
-        q, qd = y[:n], y[n:]
-        qdd = _accelerations(model, t, q, qd, a, e)
-        drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
-        out = {"q": q, "qd": qd, "qdd": qdd, "drift": drift, "approach": a}
-        out.update(_forces(model, t, q, qd, a, e))
-        return out
+        qdd = _accelerations(model, t, y[:n], y[n:], a, e)
+        return recorder.outputs(t, y, (a, e), qdd)
 
     def at_rest(reached, y, a, e):
         start = jnp.concatenate([model.q0, model.qd0])
@@ -370,4 +373,4 @@ def solution(model, ts, stops, t0, x, result, rows, written, full, n_segments, r
         return jax.tree_util.tree_map(put, outputs, evaluate(start))
 
     outputs = jax.lax.fori_loop(0, -(-T // batch), body, outputs)
-    return assemble(model, x, outputs, ts, stops, t0, result, n_segments, records)
+    return recorder.solution(x, outputs, ts, stops, t0, result, n_segments)
