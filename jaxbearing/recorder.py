@@ -24,11 +24,13 @@ from .solution import (
     POWER,
     RING_POINTS_PER_BALL,
     BearingInstant,
-    BearingResult,
+    BearingSamples,
     ContactInstant,
     Contacts,
     FatigueStats,
     Instant,
+    Records,
+    Samples,
     SegmentStats,
     Solution,
     peak_column,
@@ -303,13 +305,14 @@ class Recorder(AbstractRecorder):
         )
         sizes = fatigue_sizes(model, self.fatigue)
         ends = [self.n_segment_integrals + sum(sizes[:i]) for i in range(len(sizes) + 1)]
-        bearings = []
+        fatigue = []
         for b in range(len(model.bearings)):
-            fatigue = None
-            if sizes:
-                stats = integrals[:, ends[b] : ends[b + 1]]
-                m = (sizes[b] - FATIGUE_SCALARS) // 2
-                fatigue = FatigueStats(
+            stats = integrals[:, ends[b] : ends[b + 1]] if sizes else None
+            m = (sizes[b] - FATIGUE_SCALARS) // 2 if sizes else 0
+            fatigue.append(
+                None
+                if stats is None
+                else FatigueStats(
                     t_start,
                     t_end,
                     stats[:, :FATIGUE_SCALARS],
@@ -317,41 +320,36 @@ class Recorder(AbstractRecorder):
                     stats[:, FATIGUE_SCALARS + m :],
                     valid,
                 )
-            f = outputs["bearings"][b]
-            bearings.append(BearingResult(f["ball_loads"], f["bearing_force"], f["cage"], fatigue))
+            )
         o = outputs
-        sol = Solution(
-            ts=ts,
+        samples = Samples(
             q=o["q"],
             qd=o["qd"],
             qdd=o["qdd"],
-            bearings=tuple(bearings),
+            bearings=tuple(
+                BearingSamples(f["ball_loads"], f["bearing_force"], f["cage"]) for f in o["bearings"]
+            ),
             contact_forces=o["contact_force"],
             penetrations=o["penetration"],
             approach_speed=o["approach"],
             drift=o["drift"],
-            contacts=_contacts(x),
-            segments=segments,
-            result=result,
-            t_final=x.t,
-            t1=stops[-1],
-            max_drift=x.max_drift,
-            num_steps=x.steps,
-            num_rejected_steps=x.rejected,
-            num_segments=n_segments,
-            num_events=x.events,
-            window_start=model.window_start,
-            targets=tuple(3 * c.body_k for c in model.contacts),
-            declared=tuple(self.records),
-            records={},
         )
+        records = Records(segments, _contacts(x), tuple(fatigue), x.max_drift, {}, tuple(self.records))
+        stats = {
+            "num_steps": x.steps,
+            "num_rejected_steps": x.rejected,
+            "num_segments": n_segments,
+            "num_events": x.events,
+        }
+        targets = tuple(3 * c.body_k for c in model.contacts)
+        sol = Solution(ts, samples, records, stats, result, x.t, stops[-1], model.window_start, targets)
         # the records of your own: the columns after the built-in ones, in declared order
         first = {"peak": self.n_segment_peaks, "mean": 3 * len(model.bearings) + len(model.contacts)}
         values = {}
         for reduction, start in first.items():
             for u, (name, record) in enumerate(of_kind(self.records, reduction)):
                 values[name] = record.read(sol, start + u)
-        return dataclasses.replace(sol, records=values)
+        return dataclasses.replace(sol, records=dataclasses.replace(records, values=values))
 
 
 def _coordinates_at(interpolation, n, times):

@@ -259,16 +259,22 @@ class AbstractRecord(eqx.Module):
         return tuple(float(t) for t in (self.t_min, self.t_max) if t is not None)
 
 
-class BearingResult(eqx.Module):
-    """What a solve gives of one bearing joint (`Solution.bearings`, in model order).
+class BearingSamples(eqx.Module):
+    """One bearing joint at the output times (`Samples.bearings`, model order; T of them, NaN
+    at the times a failed run did not reach): ``ball_loads`` (T, N_b) [N], ball 1 first
+    ("ball" names a rolling element of any kind); ``force`` (T, 2) [N], the resultant on its
+    outer-race body (Eq. 28); ``cage_angle`` (T,) [rad]."""
 
-    Fields (T = number of output times; NaN at the times a failed run did not reach):
-        ball_loads: (T, N_b) [N], ball 1 first ("ball" names a rolling element of any kind).
-        force: (T, 2) [N], the resultant on its outer-race body (Eq. 28).
-        cage_angle: (T,) [rad].
-        fatigue: `FatigueStats`, what its life reads (None where not recorded:
-            ``SolveOptions(fatigue=False)``).
-    """
+    ball_loads: jax.Array
+    force: jax.Array
+    cage_angle: jax.Array
+
+
+class BearingResult(eqx.Module):
+    """What a solve gives of one bearing joint (`Solution.bearings`, in model order): its
+    samples (`BearingSamples`: ``ball_loads``, ``force``, ``cage_angle``) and its ``fatigue``
+    record (`FatigueStats`, what its life reads; None where not recorded:
+    ``SolveOptions(fatigue=False)``)."""
 
     ball_loads: jax.Array
     force: jax.Array
@@ -276,51 +282,20 @@ class BearingResult(eqx.Module):
     fatigue: FatigueStats | None
 
 
-class Solution(eqx.Module):
-    """Result of `simulate`: states and force outputs at the requested times, and the records
-    of every accepted step.
+class Samples(eqx.Module):
+    """What the solve evaluated at the output times (`Solution.samples`). Fields (T = number
+    of output times; NaN at the times a run that failed did not reach):
 
-    Fields (T = number of output times; the per-time fields are NaN at the times a run that
-    failed did not reach):
-        ts: (T,) [s].
         q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
             in model order, [x, y, theta] each.
-        bearings: one `BearingResult` per bearing joint of the model, in model order
-            (``model.bearings``): ball loads, resultant (Eq. 28), cage angle, fatigue records.
+        bearings: one `BearingSamples` per bearing joint (``model.bearings`` order).
         contact_forces: (T, K) [N], the normal force of each impact contact
-            (``model.contacts``, in model order).
+            (``model.contacts`` order).
         penetrations: (T, K) [m], the penetration of each contact (negative when apart).
         approach_speed: (T, K) [m/s], approach speed in force at each output time.
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
-        contacts: `Contacts`, the onsets.
-        segments: `SegmentStats`, peaks and integrals between the stops (what the metrics read).
-        records: name -> value of each metric of your own declared for the solve
-            (``SolveOptions(records=...)``: `metrics.Peak`, `metrics.Mean`), over its window.
-        result: a `RESULTS` code (successful unless a segment failed).
-        t_final: time reached [s] (t1 unless the solve failed).
-        t1: the final time asked for [s]; a metric's window ends there by default, and one
-            that ends after ``t_final`` has no value (`metrics.reached`).
-        max_drift: the largest constraint violation max |Phi(q, t)| [m or rad] at the end of
-            every accepted step (0 without joints); `simulate` warns where it exceeds
-            `drift_bound` of the model.
-        num_steps, num_rejected_steps: solver steps over all segments.
-        num_segments: segments of ``segment_steps`` iterations the solve used (`simulate`; 1
-            for `simulate_one_loop`).
-        num_events: events located: contact onsets and separations, ball engagements and
-            releases.
-        window_start: the model's ``window_start`` [s], where the metrics' and the life's
-            default window starts; None: at the start of the solve.
-        targets: for each contact, the index in q of the x coordinate of its body k (the body
-            its normal force pushes along +n: `CircleContact`) (static).
-        declared: the ((name, record), ...) the solve recorded (static).
-
-    A model with one bearing joint or one contact reads it by the short names
-    ``ball_loads``, ``bearing_force``, ``cage_angle``, ``fatigue``, ``contact_force``,
-    ``penetration`` and ``target`` (module properties); on a model with several they raise a
-    `ValueError` naming ``sol.bearings[i]`` or ``sol.contact_forces[:, j]``.
     """
 
-    ts: jax.Array
     q: jax.Array
     qd: jax.Array
     qdd: jax.Array
@@ -329,25 +304,126 @@ class Solution(eqx.Module):
     penetrations: jax.Array
     approach_speed: jax.Array
     drift: jax.Array
-    contacts: Contacts
+
+
+class Records(eqx.Module):
+    """What the solve recorded from every accepted step and its interpolant, whatever the
+    output times (`Solution.records`): the built-in records and, read as a mapping
+    (``sol.records[name]``), the value of each metric of your own declared for the solve
+    (``SolveOptions(records=...)``: `metrics.Peak`, `metrics.Mean`) over its window.
+
+    Fields:
+        segments: `SegmentStats`, peaks and integrals between the stops (what the metrics read).
+        contacts: `Contacts`, the onsets, ends and peak forces of the impact contacts.
+        fatigue: one `FatigueStats` per bearing joint, model order (None where not recorded).
+        max_drift: the largest constraint violation max |Phi(q, t)| [m or rad] at the end of
+            every accepted step (0 without joints); `simulate` warns where it exceeds
+            `drift_bound` of the model.
+        values: name -> value of each metric of your own.
+        declared: the ((name, record), ...) the solve recorded (static).
+    """
+
     segments: SegmentStats
-    records: dict
+    contacts: Contacts
+    fatigue: tuple
+    max_drift: jax.Array
+    values: dict
+    declared: tuple = eqx.field(static=True, default=())
+
+    def __getitem__(self, name: str) -> jax.Array:
+        if name not in self.values:
+            raise KeyError(
+                f"No record named {name!r}: the solve recorded {sorted(self.values)} (declare "
+                "yours in SolveOptions(records={name: metric}))."
+            )
+        return self.values[name]
+
+    def __iter__(self):
+        return iter(self.values)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __contains__(self, name) -> bool:
+        return name in self.values
+
+    def keys(self):
+        return self.values.keys()
+
+    def items(self):
+        return self.values.items()
+
+
+class Solution(eqx.Module):
+    """Result of `simulate`, as diffrax's: the output ``ts`` and what the solve evaluated there
+    (``samples``), what it recorded of every accepted step (``records``), its solver statistics
+    (``stats``) and ``result``.
+
+    Fields:
+        ts: (T,) the output times [s].
+        samples: `Samples` at the output times (q, qd, qdd, each bearing's ball loads, resultant
+            and cage angle, each contact's force and penetration, drift).
+        records: `Records` (`SegmentStats`, `Contacts`, each bearing's `FatigueStats`, the max
+            drift, and ``sol.records[name]`` of each metric of your own).
+        stats: solver statistics: ``num_steps``, ``num_rejected_steps`` (over all segments),
+            ``num_segments`` (segments of ``segment_steps`` iterations `simulate` used; 1 for
+            `simulate_one_loop`), ``num_events`` (contact onsets and separations, ball
+            engagements and releases located).
+        result: a `RESULTS` code (successful unless a segment failed).
+        t_final: time reached [s] (t1 unless the solve failed).
+        t1: the final time asked for [s]; a metric's window ends there by default, and one
+            that ends after ``t_final`` has no value (`metrics.reached`).
+        window_start: the model's ``window_start`` [s], where the metrics' and the life's
+            default window starts; None: at the start of the solve.
+        targets: for each contact, the index in q of the x coordinate of its body k (the body
+            its normal force pushes along +n: `CircleContact`) (static).
+
+    Each field of `Samples`, `Records` and ``stats`` is also read directly (``sol.q``,
+    ``sol.segments``, ``sol.num_steps``, ...); ``sol.bearings[i]`` is bearing i's
+    `BearingResult` (samples and fatigue). A model with one bearing joint or one contact reads
+    it by the short names ``ball_loads``, ``bearing_force``, ``cage_angle``, ``fatigue``,
+    ``contact_force``, ``penetration`` and ``target``; on a model with several they raise a
+    `ValueError` naming ``sol.bearings[i]`` or ``sol.contact_forces[:, j]``.
+    """
+
+    ts: jax.Array
+    samples: Samples
+    records: Records
+    stats: dict
     result: RESULTS
     t_final: jax.Array
     t1: jax.Array
-    max_drift: jax.Array
-    num_steps: jax.Array
-    num_rejected_steps: jax.Array
-    num_segments: jax.Array
-    num_events: jax.Array
     window_start: jax.Array | None = None
     targets: tuple = eqx.field(static=True, default=())
-    declared: tuple = eqx.field(static=True, default=())
+
+    q = property(lambda self: self.samples.q, doc="(T, n_coordinates) [m, rad] (`Samples`).")
+    qd = property(lambda self: self.samples.qd, doc="(T, n_coordinates) velocities (`Samples`).")
+    qdd = property(lambda self: self.samples.qdd, doc="(T, n_coordinates) accelerations (`Samples`).")
+    contact_forces = property(lambda self: self.samples.contact_forces, doc="(T, K) [N] (`Samples`).")
+    penetrations = property(lambda self: self.samples.penetrations, doc="(T, K) [m] (`Samples`).")
+    approach_speed = property(lambda self: self.samples.approach_speed, doc="(T, K) [m/s] (`Samples`).")
+    drift = property(lambda self: self.samples.drift, doc="(T,) max |Phi| [m or rad] (`Samples`).")
+    segments = property(lambda self: self.records.segments, doc="`SegmentStats` (`Records`).")
+    contacts = property(lambda self: self.records.contacts, doc="`Contacts` (`Records`).")
+    max_drift = property(lambda self: self.records.max_drift, doc="max |Phi| over the run (`Records`).")
+    declared = property(lambda self: self.records.declared, doc="((name, record), ...) (`Records`).")
+    num_steps = property(lambda self: self.stats["num_steps"], doc="Solver steps (``stats``).")
+    num_rejected_steps = property(lambda self: self.stats["num_rejected_steps"], doc="Rejected steps (``stats``).")
+    num_segments = property(lambda self: self.stats["num_segments"], doc="Segments used (``stats``).")
+    num_events = property(lambda self: self.stats["num_events"], doc="Events located (``stats``).")
+
+    @property
+    def bearings(self) -> tuple:
+        """One `BearingResult` per bearing joint, model order: its samples and its fatigue."""
+        return tuple(
+            BearingResult(b.ball_loads, b.force, b.cage_angle, fatigue)
+            for b, fatigue in zip(self.samples.bearings, self.records.fatigue)
+        )
 
     @property
     def n_bearings(self) -> int:
         """Bearing joints of the model (B)."""
-        return len(self.bearings)
+        return len(self.samples.bearings)
 
     @property
     def n_contacts(self) -> int:
@@ -357,13 +433,13 @@ class Solution(eqx.Module):
     def _only_bearing(self):
         """The model's one bearing joint's `BearingResult` (None without); a ValueError with
         several."""
-        if len(self.bearings) > 1:
+        if self.n_bearings > 1:
             raise ValueError(
-                f"This model has {len(self.bearings)} bearing joints: read each as "
-                f"sol.bearings[i] (i from 0 to {len(self.bearings) - 1}, model order), e.g. "
+                f"This model has {self.n_bearings} bearing joints: read each as "
+                f"sol.bearings[i] (i from 0 to {self.n_bearings - 1}, model order), e.g. "
                 "sol.bearings[1].ball_loads."
             )
-        return self.bearings[0] if self.bearings else None
+        return self.bearings[0] if self.n_bearings else None
 
     def _only_contact(self, x):
         """Column 0 of ``x`` (T, K) for a model with one contact (zeros without); a ValueError
@@ -421,22 +497,12 @@ class Solution(eqx.Module):
         return self.targets[0] if self.targets else None
 
 
-_PER_TIME = ("ts", "q", "qd", "qdd", "contact_forces", "penetrations", "approach_speed", "drift")
-_PER_TIME_BEARING = ("ball_loads", "force", "cage_angle")
-
-
 def map_per_time(fn, sol: Solution, *more: Solution) -> Solution:
-    """``sol`` with each per-time array x (first axis: the output times) replaced by
-    ``fn(x, *the same array of each of more)``."""
-
-    def mapped(node, others, names):
-        return {k: fn(getattr(node, k), *(getattr(o, k) for o in others)) for k in names}
-
-    bearings = tuple(
-        dataclasses.replace(b, **mapped(b, [m.bearings[i] for m in more], _PER_TIME_BEARING))
-        for i, b in enumerate(sol.bearings)
-    )
-    return dataclasses.replace(sol, bearings=bearings, **mapped(sol, more, _PER_TIME))
+    """``sol`` with ``ts`` and each array of its `Samples` x (first axis: the output times)
+    replaced by ``fn(x, *the same array of each of more)``."""
+    ts = fn(sol.ts, *(m.ts for m in more))
+    samples = jax.tree_util.tree_map(fn, sol.samples, *(m.samples for m in more))
+    return dataclasses.replace(sol, ts=ts, samples=samples)
 
 
 @functools.partial(jax.jit, static_argnums=1)

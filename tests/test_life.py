@@ -325,13 +325,11 @@ def _fake_solution(model, e0, omega=20 * np.pi, samples=401):
     e, v = jnp.array([e0, 0.0]), jnp.zeros(2)
     loads = jax.vmap(lambda c: jb.laws.ball_loads(e, v, c, joint.bearing))(jnp.asarray(cage))
     force = jax.vmap(jb.laws.resultant)(loads, jnp.asarray(cage))
-    bearing = jb.solution.BearingResult(loads, force, jnp.asarray(cage), None)
-    return jb.Solution(
-        ts=jnp.asarray(ts), q=jnp.asarray(q), qd=jnp.asarray(qd), qdd=None, bearings=(bearing,),
-        contact_forces=None, penetrations=None, approach_speed=None, drift=None, contacts=None,
-        segments=None, records={}, result=None, t_final=None, t1=None, max_drift=None, num_steps=None,
-        num_rejected_steps=None, num_segments=None, num_events=None,
-    )  # fmt: skip
+    S = jb.solution
+    bearing = S.BearingSamples(loads, force, jnp.asarray(cage))
+    samples = S.Samples(jnp.asarray(q), jnp.asarray(qd), None, (bearing,), None, None, None, None)
+    records = S.Records(None, None, (None,), None, {})
+    return jb.Solution(jnp.asarray(ts), samples, records, {}, None, None, None)
 
 
 @pytest.fixture(scope="module")

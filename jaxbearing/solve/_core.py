@@ -37,7 +37,9 @@ import jax.numpy as jnp
 
 from ..laws.bearing import BALL_RELEASE
 from ..solution import RESULTS
-from ._recording import AbstractRecorder, Peaks, Records, add_peaks, no_peaks, no_records, point_peaks, step_stats
+from ._recording import (
+    AbstractRecorder, Peaks, RecordState, add_peaks, no_peaks, no_records, point_peaks, step_stats,
+)  # fmt: skip
 
 SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] width of the bracket that locates an event time
@@ -210,7 +212,7 @@ class State(NamedTuple):
     step_h: jax.Array  # [s] the step the controller proposed after it
     root: ITPState
     root_steps: jax.Array
-    records: Records  # peaks and integrals of each stop interval so far
+    records: RecordState  # peaks and integrals of each stop interval so far
     onsets: tuple  # (time, approach speed, contact index) of each onset, each (max_onsets,)
     spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact
     n_onsets: jax.Array
@@ -465,8 +467,8 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         ),
         lambda: (no_peaks(s.recorder), jnp.zeros_like(integrals)),
     )
-    rows = Records(add_peaks(s.recorder.carried_columns, peaks, step_peaks), integrals + step_integrals)
-    rows = _select(row.recorded, rows, Records(peaks, integrals))
+    rows = RecordState(add_peaks(s.recorder.carried_columns, peaks, step_peaks), integrals + step_integrals)
+    rows = _select(row.recorded, rows, RecordState(peaks, integrals))
     into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731
     onset = o.located & o.onset[3]
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])

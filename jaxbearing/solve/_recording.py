@@ -35,7 +35,7 @@ class Peaks(NamedTuple):
     carried: tuple
 
 
-class Records(NamedTuple):
+class RecordState(NamedTuple):
     """The record state of a solve, one row per interval between stops: `Peaks` (n_stops, ...)
     and ``integrals`` (n_stops, I)."""
 
@@ -113,9 +113,9 @@ def no_peaks(recorder: AbstractRecorder, rows=()) -> Peaks:
     return Peaks(jnp.full(shape, -jnp.inf), jnp.zeros(shape), carried)
 
 
-def no_records(recorder: AbstractRecorder, rows: int) -> Records:
-    """The `Records` of ``rows`` intervals before any step."""
-    return Records(no_peaks(recorder, (rows,)), jnp.zeros((rows, recorder.n_integrals)))
+def no_records(recorder: AbstractRecorder, rows: int) -> RecordState:
+    """The `RecordState` of ``rows`` intervals before any step."""
+    return RecordState(no_peaks(recorder, (rows,)), jnp.zeros((rows, recorder.n_integrals)))
 
 
 def point_peaks(recorder: AbstractRecorder, t, y, observed) -> Peaks:
