@@ -155,7 +155,7 @@ class BearingJoint(AbstractForceElement):
         ]
         # joined end to end, not stacked: vmapped over a step's points, a stack puts the rings'
         # axis before the points' and XLA:CPU transposes the loads in every step's fatigue
-        # integrands (`_recording`; docs/performance.md)
+        # integrands (`jaxbearing.recorder`; docs/performance.md)
         return jnp.concatenate(rows).reshape(2, n_points)
 
     def force(self, t, q, qd, q0, qd0, engaged=None):

@@ -2,9 +2,11 @@
 
 The integrator core (`_core`) is one iteration of the solve: a solver step with step-size
 control, or a step of an event's root finder, and the records of each step taken
-(`_recording`). `simulate` (in `_simulate`) repeats it in a scan of segments (`_segments`),
-which reverse mode differentiates and which writes the output times; `simulate_one_loop` (in
-`_one_loop`) repeats it in one while loop, for large batches on accelerators. The stops are in
+(`_recording`: columns of peaks and integrals, whose meaning the application's recorder
+defines, `jaxbearing.recorder`). `simulate` (in `_simulate`) repeats it in a scan of segments
+(`_segments`), which reverse mode differentiates and which writes the output times;
+`simulate_one_loop` (in `_one_loop`) repeats it in one while loop, for large batches on
+accelerators. The stops are in
 `_stops`, the progress bar in `_progress`, the result types in `jaxbearing.solution`.
 """
 
