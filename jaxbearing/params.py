@@ -78,7 +78,8 @@ class AbstractBearing(eqx.Module):
         outer_race_diameter: d_o, outer raceway diameter [m] (cage speed, Eq. 15).
         damping_ramp: deflection over which the smooth variant ramps the damping in [m].
         n_balls: N_b, number of rolling elements (static).
-        exponent: n of Eq. 9: 3/2 for balls, 10/9 for rollers (static).
+        exponent: n of Eq. 9: 3/2 for balls (the constructor's default), 10/9 for rollers
+            (static).
         cage: ``"kinematic"`` (cage angle from the ring angles, the default) or ``"constant"``
             (cage speed of Eq. 15 at the initial ring speeds), see docs/model.md, 'Cage angle'
             (static).
@@ -110,7 +111,7 @@ class AbstractBearing(eqx.Module):
         outer_race_diameter,
         n_balls: int,
         *,
-        exponent: float,
+        exponent: float = BALL_EXPONENT,
         cage: CageMode = "kinematic",
         ball_force: BallForce = "paper",
         damping_ramp=1e-6,
@@ -198,25 +199,6 @@ class BallBearing(AbstractBearing):
     """
 
     life_exponent: ClassVar[float] = 3.0
-
-    def __init__(
-        self,
-        clearance,
-        stiffness,
-        damping,
-        inner_race_diameter,
-        outer_race_diameter,
-        n_balls: int,
-        *,
-        exponent: float = BALL_EXPONENT,
-        cage: CageMode = "kinematic",
-        ball_force: BallForce = "paper",
-        damping_ramp=1e-6,
-    ):
-        super().__init__(
-            clearance, stiffness, damping, inner_race_diameter, outer_race_diameter, n_balls,
-            exponent=exponent, cage=cage, ball_force=ball_force, damping_ramp=damping_ramp,
-        )  # fmt: skip
 
     @classmethod
     def from_geometry(
