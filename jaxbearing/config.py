@@ -11,7 +11,7 @@ of `jaxbearing.cases.xu2014`:
     cage = "kinematic"       # "kinematic" or "constant"               -> cage
     ball_force = "paper"     # "paper" or "smooth"                     -> ball_force
     designation = "98205"    # a catalogue bearing: "98205" (the paper's),  -> bearing
-                             # "NU205-estimated" or "209" (cylindrical roller bearings)
+                             # "NU205-estimated", "NU206" or "209" (cylindrical roller bearings)
 
     [impact]
     restitution = 0.8        # e_c, in (0, 1]                          -> restitution

@@ -33,10 +33,16 @@ CATALOGUE = {
 # Cylindrical roller bearings (pitch and roller diameter, effective roller length L_we [m],
 # rollers), docs/model.md, 'Roller bearings': "209", Harris & Kotzalas' 209 cylindrical roller
 # bearing (raceways 54.991 and 75.032 mm, 14 rollers of 10 mm, effective length 9.6 mm);
+# "NU206", an NU 206: raceways F = 37.5 mm and E = 55.5 mm from SKF's General Catalogue
+# (NU 206 ECP, N 206 ECP; C_r 44 kN, C_0r 36.5 kN), 13 rollers of 9 x 10 mm from the NU 206
+# of the tribology package's P3CAN input template (Ploss et al., doi:10.5281/zenodo.1117727);
+# 10 mm is the rollers' length, an upper bound of L_we (docs/life.md, 'A catalogue roller
+# bearing of published internals');
 # "NU205-estimated", internals estimated for an NU 205 (the SKF 98205's envelope) from the
 # catalogue's inner raceway diameter F = 31.5 mm and ratings C_r 28.6 kN, C_0r 27.0 kN.
 ROLLER_CATALOGUE = {
     "209": dict(pitch_diameter=65.0115e-3, roller_diameter=10e-3, roller_length=9.6e-3, n_rollers=14),
+    "NU206": dict(pitch_diameter=46.5e-3, roller_diameter=9e-3, roller_length=10e-3, n_rollers=13),
     "NU205-estimated": dict(
         pitch_diameter=38.9e-3, roller_diameter=7.4e-3, roller_length=7.9e-3, n_rollers=13
     ),
@@ -78,7 +84,8 @@ class AbstractBearing(eqx.Module):
         outer_race_diameter: d_o, outer raceway diameter [m] (cage speed, Eq. 15).
         damping_ramp: deflection over which the smooth variant ramps the damping in [m].
         n_balls: N_b, number of rolling elements (static).
-        exponent: n of Eq. 9: 3/2 for balls, 10/9 for rollers (static).
+        exponent: n of Eq. 9: 3/2 for balls (the constructor's default), 10/9 for rollers
+            (static).
         cage: ``"kinematic"`` (cage angle from the ring angles, the default) or ``"constant"``
             (cage speed of Eq. 15 at the initial ring speeds), see docs/model.md, 'Cage angle'
             (static).
@@ -110,7 +117,7 @@ class AbstractBearing(eqx.Module):
         outer_race_diameter,
         n_balls: int,
         *,
-        exponent: float,
+        exponent: float = BALL_EXPONENT,
         cage: CageMode = "kinematic",
         ball_force: BallForce = "paper",
         damping_ramp=1e-6,
@@ -198,25 +205,6 @@ class BallBearing(AbstractBearing):
     """
 
     life_exponent: ClassVar[float] = 3.0
-
-    def __init__(
-        self,
-        clearance,
-        stiffness,
-        damping,
-        inner_race_diameter,
-        outer_race_diameter,
-        n_balls: int,
-        *,
-        exponent: float = BALL_EXPONENT,
-        cage: CageMode = "kinematic",
-        ball_force: BallForce = "paper",
-        damping_ramp=1e-6,
-    ):
-        super().__init__(
-            clearance, stiffness, damping, inner_race_diameter, outer_race_diameter, n_balls,
-            exponent=exponent, cage=cage, ball_force=ball_force, damping_ramp=damping_ramp,
-        )  # fmt: skip
 
     @classmethod
     def from_geometry(
@@ -372,10 +360,11 @@ class RollerBearing(AbstractBearing):
         cls, designation: str, *, clearance=0.04e-3, damping=300.0, **kwargs
     ) -> RollerBearing:
         """A cylindrical roller bearing by its designation (the keys of `ROLLER_CATALOGUE`:
-        "209", Harris & Kotzalas' 209 cylindrical roller bearing; "NU205-estimated", internals
-        estimated for the NU 205, docs/model.md, 'Roller bearings') with the given diametral
-        clearance P_d [m] and per-roller damping C_b [N s/m] (defaults: the paper's 40 um and
-        300 N s/m); other keyword arguments go to `from_geometry` (cage, ball_force, ...)."""
+        "209", Harris & Kotzalas' 209 cylindrical roller bearing; "NU206", an NU 206 of
+        published internals; "NU205-estimated", internals estimated for the NU 205;
+        docs/model.md, 'Roller bearings') with the given diametral clearance P_d [m] and
+        per-roller damping C_b [N s/m] (defaults: the paper's 40 um and 300 N s/m); other
+        keyword arguments go to `from_geometry` (cage, ball_force, ...)."""
         geometry = _designation(ROLLER_CATALOGUE, designation)
         return cls.from_geometry(**geometry, clearance=clearance, damping=damping, **kwargs)
 

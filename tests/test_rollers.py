@@ -4,9 +4,11 @@ adjustment for reliability, and the static capacity of balls and rollers (ISO 76
 Truths: Palmgren's line-contact deflection written out here in the units it is published in
 (mm, N); ISO 281's and ISO 76's formulas written out here; the closed forms behind the standards'
 tables (ISO/TR 1281-1's f_c of roller bearings, ISO/TR 10657's f_0 of ball bearings recomputed
-from Hertz with SciPy's elliptic integrals, ISO 281's a1 formula); catalogue ratings (6205:
-C_0r 7.8 kN; NU 205: C_r 28.6 kN, C_0r 27.0 kN); Hertz's point and line contact in closed form;
-the equilibrium of the rollers of a loaded bearing at rest solved with SciPy (`helpers`).
+from Hertz with SciPy's elliptic integrals, ISO 76's roller constant from Hertz's line contact,
+ISO 281's a1 formula and SKF's table of its 1990 edition); catalogue ratings (6205: C_0r 7.8 kN;
+SKF NU 205 ECP: C_r 28.6 kN, C_0r 27.0 kN; SKF NU 206 ECP: C_r 44 kN, C_0r 36.5 kN); Hertz's
+point and line contact in closed form; the equilibrium of the rollers of a loaded bearing at
+rest solved with SciPy (`helpers`).
 """
 
 import jax
@@ -150,14 +152,33 @@ def test_ball_f0_table_is_4200_mpa_at_the_most_loaded_ball():
 
 
 def test_reliability_factor_is_iso_281_s_formula():
+    """Every entry of Table 12 is the formula to the table's rounding (0.005). SKF's General
+    Catalogue (Russian edition, p. 53) prints the a1 of ISO 281:1990, the same Weibull law
+    without the 2007 floor: 1, 0.62, 0.53, 0.44, 0.33, 0.21 at 90 ... 99 %; 0.95 a1 + 0.05 of
+    them is the 2007 table to both tables' roundings (0.95 x 0.005 + 0.005 < 0.01)."""
     s = life._formulas.A1_RELIABILITY
     formula = 0.95 * (np.log(1 / s) / np.log(1 / 0.9)) ** (2 / 3) + 0.05
     np.testing.assert_allclose(life._formulas.A1_TABLE, formula, atol=0.005)
+    skf_1990 = np.array([1.0, 0.62, 0.53, 0.44, 0.33, 0.21])
+    np.testing.assert_array_equal(s[:6], [0.90, 0.95, 0.96, 0.97, 0.98, 0.99])
+    np.testing.assert_allclose(life._formulas.A1_TABLE[:6], 0.95 * skf_1990 + 0.05, atol=0.01)
     np.testing.assert_array_equal(np.asarray(life.reliability_factor(s)), life._formulas.A1_TABLE)
     assert float(life.reliability_factor(0.99)) == 0.25
     for bad in (0.89, 0.9999, 99.0):
         with pytest.raises(ValueError, match="reliability"):
             life.reliability_factor(bad)
+
+
+def test_roller_static_constant_is_4000_mpa_at_the_most_loaded_roller():
+    """ISO 76's C_0r = 44 (1 - gamma) Z L_we D_we: the radial load whose most loaded roller,
+    Q_max = 5 F_r / Z (the factor of the ball table, ISO/TR 10657), makes 4 000 MPa at the centre
+    of its inner contact. Line contact of steel (E* = E / (2 (1 - nu^2))), curvature sum
+    2 / (D_we (1 - gamma)): Q = pi p0^2 L_we D_we (1 - gamma) / (2 E*), so the constant is
+    pi p0^2 / (10 E*) = 44.19 N/mm^2, 44 to the standard's two digits (0.5 %)."""
+    e_star = E_STEEL * 1e-6 / (2 * (1 - NU_STEEL**2))  # [MPa]
+    constant = np.pi * 4000.0**2 / (10 * e_star)  # [N/mm^2]
+    assert life._ratings.ROLLER_STATIC_FACTOR == pytest.approx(constant, rel=5e-3)
+    assert float(life.PERMISSIBLE_ROLLER) == 4000e6
 
 
 def test_roller_ratings_are_the_standards_formulas():
@@ -185,6 +206,31 @@ def test_ratings_against_catalogues():
     nu205 = jb.RollerBearing.from_catalogue("NU205-estimated")
     assert float(life.dynamic_rating(nu205)) == pytest.approx(28.6e3, rel=5e-3)
     assert float(life.static_rating(nu205)) == pytest.approx(27.0e3, rel=5e-3)
+
+
+def test_nu206_against_skf_s_catalogue():
+    """The "NU206" entry: raceways F = 37.5 mm (NU 206 ECP) and E = 55.5 mm (N 206 ECP), SKF's
+    General Catalogue (Russian edition, p. 525), so D_we = (E - F)/2 and d_m = (E + F)/2; 13
+    rollers of length 10 mm (the tribology package's P3CAN template). The standards' formulas,
+    f_c read off Table 7 by hand (D/d_m = 0.1935: between 88.8 and 88.7), give C_r 42.4 kN and
+    C_0r 41.5 kN. SKF (p. 524) rates it C_r 44 kN, C_0r 36.5 kN. 10 mm is the rollers' whole
+    length, at least L_we (which ends where the roller's corners begin), so C_0r (prop. to L_we)
+    comes out above the catalogue's: +13.7 %; the catalogue's C_0r is ISO 76's at L_we = 8.8 mm.
+    C_r (prop. to L_we^(7/9)) comes out 3.5 % below the catalogue's: at L_we = 8.8 mm it would
+    be 13 % below, the margin of SKF's Explorer rating over the standard's b_m. The bounds: C_r
+    below the catalogue's by less than 10 %, C_0r above it by less than 20 %."""
+    f, e, z, length = 37.5, 55.5, 13, 10.0  # mm
+    d, dm = (e - f) / 2, (e + f) / 2
+    gamma = d / dm
+    fc = 88.8 + (gamma - 0.19) / 0.01 * (88.7 - 88.8)
+    c_r = 1.1 * fc * length ** (7 / 9) * z**0.75 * d ** (29 / 27)
+    c_0r = 44 * (1 - gamma) * z * length * d
+    b = jb.RollerBearing.from_catalogue("NU206")
+    assert b.n_balls == z and float(b.roller_length) == pytest.approx(1e-3 * length, rel=1e-15)
+    assert float(life.dynamic_rating(b)) == pytest.approx(c_r, rel=1e-12)
+    assert float(life.static_rating(b)) == pytest.approx(c_0r, rel=1e-12)
+    assert -0.10 < c_r / 44.0e3 - 1 < 0.0  # -3.5 %
+    assert 0.0 < c_0r / 36.5e3 - 1 < 0.20  # +13.7 %
 
 
 @pytest.mark.parametrize(

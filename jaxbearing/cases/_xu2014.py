@@ -110,7 +110,7 @@ def xu2014(
             start-up transient); None: the whole span.
         bearing: the crank–rod bearing: a catalogue designation (`params.CATALOGUE`: "98205",
             the paper's SKF 98205; `params.ROLLER_CATALOGUE`: "NU205-estimated", a cylindrical
-            roller bearing of the same envelope, or "209"), built with ``cage``,
+            roller bearing of the same envelope, "NU206" or "209"), built with ``cage``,
             ``ball_force``, ``clearance`` and ``bearing_damping``; or a `BallBearing` or
             `RollerBearing` itself, and then those four must keep their defaults.
     """

@@ -172,7 +172,9 @@ def rating_life(load_rating, equivalent, exponent=3.0):
 # ISO 281:2007, Table 12: life modification factor for reliability a1 (L_nm = a1 L10) at the
 # reliabilities 90 ... 99.95 %. Each entry is the standard's formula 0.95 (ln(1/R) /
 # ln(1/0.9))^(2/3) + 0.05 (a Weibull slope 1.5 and a life that never falls below 0.05 L10) to
-# the table's rounding (tests/test_rollers.py).
+# the table's rounding (tests/test_rollers.py). The 1990 edition's a1, without the 0.05 floor
+# (0.62, 0.53, 0.44, 0.33, 0.21 at 95 ... 99 %, as SKF's General Catalogue prints them, p. 53),
+# give these through 0.95 a1 + 0.05; the test checks that too.
 A1_RELIABILITY = np.array(
     [0.90, 0.95, 0.96, 0.97, 0.98, 0.99, 0.992, 0.994, 0.996, 0.998, 0.999, 0.9992, 0.9994, 0.9995]
 )
