@@ -154,9 +154,9 @@ def test_onsets_from_padded_contacts():
 
 
 def test_contacts_from_the_records():
-    """`report.contacts`: the first impact contact's records in time order, padded slots and
-    other contacts left out, a contact still on at the end ending at t_final; the summary's
-    contact intervals are these."""
+    """`report.contacts`: one impact contact's records in time order, padded slots and other
+    contacts left out, a contact still on at the end ending at t_final; the summary's contact
+    intervals are these (the only contact's); with several, the one named by ``contact=``."""
     sol = fake_solution(
         np.linspace(0.0, 0.1, 11),
         onsets=[
@@ -174,6 +174,16 @@ def test_contacts_from_the_records():
         [0.0913, 0.0915, 6900.0, 0.0914],
         [0.095, 0.1, 80.0, 0.097],
     ]
+    # a model of two contacts: each one's by its index, None refused
+    sol.n_contacts = 2
+    (second,) = report.contacts(sol, contact=1)
+    assert (second.start, second.end, second.approach_speed) == (0.092, 0.093, 0.3)
+    assert math.isnan(second.peak_force)  # its slot recorded no peak
+    assert [c.start for c in report.contacts(sol, contact=0)] == [0.0913, 0.095]
+    with pytest.raises(ValueError, match="pass contact="):
+        report.contacts(sol)
+    with pytest.raises(ValueError, match="contact must index"):
+        report.contacts(sol, contact=2)
 
 
 def test_contact_intervals():

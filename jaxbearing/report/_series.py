@@ -11,6 +11,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..cases import SLIDER, TARGET
+from ..metrics import contact_index
 
 UNITS = {
     "t": "s",
@@ -141,14 +142,19 @@ class Contact(NamedTuple):
     approach_speed: float  # penetration rate at onset [m/s]
 
 
-def contacts(sol) -> list[Contact]:
-    """Every contact of the model's first impact contact, in time order, from the solve's
-    records (``sol.contacts``): onset and end located as events, the peak force over the
-    solution's steps and interpolants, so the same whatever the output times. A contact that
-    lasted to the end of the run ends at ``sol.t_final``."""
+def contacts(sol, contact: int | None = None) -> list[Contact]:
+    """Every contact of one impact contact of the model (``contact``: index into
+    ``model.contacts``; None: the only one, a ValueError on a model with several), in time
+    order, from the solve's records (``sol.contacts``): onset and end located as events, the
+    peak force over the solution's steps and interpolants, so the same whatever the output
+    times. A contact that lasted to the end of the run ends at ``sol.t_final``; a model
+    without impact contact has none."""
+    index = contact_index(sol, contact)
+    if index is None:
+        return []
     c = sol.contacts
-    first = np.asarray(c.valid, dtype=bool) & (np.asarray(c.index) == 0)
-    fields = [np.asarray(x, dtype=float)[first] for x in
+    chosen = np.asarray(c.valid, dtype=bool) & (np.asarray(c.index) == index)
+    fields = [np.asarray(x, dtype=float)[chosen] for x in
               (c.time, c.end, c.peak_force, c.peak_time, c.approach_speed)]
     t_final = float(sol.t_final)
     found = [Contact(a, t_final if math.isnan(b) else b, f, p, v) for a, b, f, p, v in zip(*fields)]
