@@ -109,7 +109,7 @@ def test_peak_times_and_ball_come_from_the_solution(dense, coarse, t_min):
     time = float(M.peak_time(dense, M.peak_ball_load, t_min=t_min))
     there = [np.interp(time, ts, loads[:, k]) for k in range(loads.shape[1])]
     np.testing.assert_allclose(at_peak, there, rtol=0, atol=2e-5 * value)
-    with pytest.raises(ValueError, match="of an exact peak"):
+    with pytest.raises(ValueError, match="must be an exact peak"):
         M.peak_time(dense, M.rms_bearing_force)
 
 
