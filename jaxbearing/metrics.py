@@ -57,6 +57,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 import inspect
+import itertools
 import math
 import numbers
 from collections.abc import Callable
@@ -276,10 +277,20 @@ def solve_options(options, metrics, t1, window_start=None):
     """``options`` (None: the defaults) with what ``metrics`` (`AbstractMetric`) need of a solve
     from ``options.t0`` to ``t1`` [s]: their `records` declared, and their `edges` inside (t0,
     t1) that are not stops already (t0, t1, ``window_start`` [s] unless None, the
-    ``window_edges``) added to ``window_edges``, so that their windows end on stops."""
-    from .solve._options import declaring  # the metrics alone never import the solver
+    ``window_edges``) added to ``window_edges``, so that their windows end on stops. A record
+    declared already is not declared again; a name taken already gets a number (``#2``, ...),
+    in the order of ``metrics``, so that a sweep's settings are the same in every process."""
+    from .solve._options import SolveOptions, declaring  # the metrics alone never import the solver
 
-    options = declaring(options, tuple(r for m in metrics for r in m.records()))
+    options = SolveOptions() if options is None else options
+    declared = list(options.records)
+    for name, record in (r for m in metrics for r in m.records()):
+        if any(record == other for _, other in declared):
+            continue
+        taken = {n for n, _ in declared}
+        numbered = (f"{name}#{k}" for k in itertools.count(2))
+        declared.append((name if name not in taken else next(n for n in numbered if n not in taken), record))
+    options = declaring(options, tuple(declared[len(options.records):]))
     t0, t1 = float(options.t0), float(t1)
     stops = [t0, t1, *options.window_edges, *([] if window_start is None else [float(window_start)])]
     new = sorted({
@@ -751,8 +762,8 @@ class _Own(AbstractRecord, AbstractMetric):
         return self(sol)
 
     def records(self) -> tuple:
-        """This metric under a name that its label and its hash make unique among records."""
-        return ((f"{self.label}#{hash(self) & 0xFFFFFFFFFFFFFFFF:016x}", self),)
+        """This metric under its label (`solve_options` numbers labels that repeat)."""
+        return ((self.label, self),)
 
     @property
     def label(self) -> str:

@@ -103,12 +103,9 @@ def test_labels_edges_records_and_equality():
         assert not metric.reads_samples and not metric.reads_fatigue and metric.records() == ()
     life = jb.life.metric("iso", t_min=0.05)
     assert life.reads_fatigue and not life.reads_samples and life.edges() == (0.05,)
-    # a metric of your own declares itself, under a name its label and hash make unique
+    # a metric of your own declares itself, under its label
     peak = M.Peak(abs, t_max=0.08)
-    ((name, record),) = peak.records()
-    assert record is peak and name.startswith("Peak(abs, t_max=0.08)#")
-    one, other = M.Peak(lambda m, x: x.t), M.Peak(lambda m, x: x.t)  # one label, two functions
-    assert one.records()[0][0] != other.records()[0][0]
+    assert peak.records() == (("Peak(abs, t_max=0.08)", peak),)
     assert peak.edges() == (0.08,) and peak.replace(t_max=None).edges() == ()
 
 
@@ -133,17 +130,23 @@ def test_a_function_is_a_metric_that_reads_the_samples(rotor, run):
 
 def test_solve_options_declare_records_and_add_edges(rotor):
     peak = M.Peak(abs, t_min=0.004)
-    metrics = (peak, M.peak_ball_load.replace(t_min=0.002), M.rms_bearing_force.replace(t_max=T1))
+    metrics = (peak, M.peak_ball_load.replace(t_min=0.002), M.rms_bearing_force.replace(t_max=T1), peak)
     options = M.solve_options(jb.SolveOptions(window_edges=(0.002,)), metrics, T1, rotor.window_start)
-    assert options.records == peak.records()
+    assert options.records == peak.records()  # declared once
     assert options.window_edges == (0.002, 0.004)  # t1 and the edge given already are stops
+    # two records under one label: numbered in order, the same names in every process
+    one, other = M.Peak(lambda m, x: x.t), M.Peak(lambda m, x: x.t)
+    options = M.solve_options(None, (one, other), T1)
+    label = one.label
+    assert options.records == ((label, one), (f"{label}#2", other))
 
 
-def test_sensitivity_of_the_life_to_the_clearance():  # 42 s: forward mode and 3 solves at rtol 1e-10
-    """d L10h / d clearance of `life.metric()` (ISO 281, the member's model: the clearance
-    enters through the solve) by forward mode against central differences within 2 %: the
-    derivative of the discrete solve converges more slowly than the solution (docs/gradients.md;
-    the same bound as the other derivative checks); smooth ball force."""
+def test_sensitivity_of_the_life_to_the_clearance():  # 10-40 s: forward mode, 3 solves at rtol 1e-10
+    """d L10h / d clearance of `life.metric()` (ISO 281, of the model at the perturbed
+    clearance: it enters through the solve) by forward mode against central differences (step
+    1e-3 of the clearance) within 2e-3: the derivative of the discrete solve converges more
+    slowly than the solution (docs/gradients.md); measured 1.7e-4 apart (-1.760e13 h/m at
+    L10h = 6.09e8 h), smooth ball force."""
     model = jb.cases.rotor(jb.cases.skf98205(ball_force="smooth", damping=3000.0), speed=100.0)
     controller = jb.default_controller(rtol=1e-10, atol=1e-12)
     metric = jb.life.metric()
@@ -156,4 +159,4 @@ def test_sensitivity_of_the_life_to_the_clearance():  # 42 s: forward mode and 3
     c, h = float(model.bearing.clearance), 1e-3 * float(model.bearing.clearance)
     assert float(value) == pytest.approx(at(c), rel=1e-6)  # another compiled program: rounding
     difference = (at(c + h) - at(c - h)) / (2 * h)
-    assert float(grad["bearing.clearance"]) == pytest.approx(difference, rel=0.02)
+    assert float(grad["bearing.clearance"]) == pytest.approx(difference, rel=2e-3)
