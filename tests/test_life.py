@@ -496,7 +496,7 @@ def test_life_as_a_metric_of_solution_and_model(model, simulated):
     for metric, expected in cases:
         assert isinstance(metric, jb.metrics.AbstractMetric)
         assert metric.reads_fatigue and not metric.reads_samples and metric.records() == ()
-        assert float(metric.value(sol, model)) == float(expected)
+        assert float(metric.value(sol, model)) == float(expected) == float(metric(sol, model))
     assert life.metric("lp", "mrev", **kw).label == "life.metric('lp', unit='mrev', groove_inner=0.5219, groove_outer=0.5194)"
     assert life.metric(t_min=0.05, t_max=0.08).edges() == (0.05, 0.08)
     assert life.metric(t_min="model").edges() == ()

@@ -399,6 +399,10 @@ class LifeMetric(AbstractMetric):
         result = _life_function(self.method)(sol, model, **dict(self.options))
         return result.l10_hours if self.unit == "hours" else result.l10
 
+    def __call__(self, sol: Solution, model: Mechanism) -> jax.Array:
+        """`value` (called as the life functions are, on a solution and its model)."""
+        return self.value(sol, model)
+
     def edges(self) -> tuple[float, ...]:
         """``t_min`` and ``t_max`` [s] where given as numbers."""
         options = dict(self.options)
