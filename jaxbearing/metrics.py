@@ -136,7 +136,9 @@ def _index(name, value):
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-        raise ValueError(f"{name} must be None (the only one) or an index, an integer >= 0; got {value!r}.")
+        raise ValueError(
+            f"{name} must be None (the only one) or an index, an integer >= 0; got {value!r}."
+        )
     return int(value)
 
 
@@ -194,7 +196,8 @@ class BuiltinMetric(AbstractMetric):
         """``t_min`` and ``t_max`` where numbers, and those of a ``metric`` field [s]."""
         fields = dict(self.arguments)
         inner = fields.get("metric")
-        return finite_numbers(fields.get("t_min"), fields.get("t_max")) + (() if inner is None else inner.edges())
+        own = finite_numbers(fields.get("t_min"), fields.get("t_max"))
+        return own + (() if inner is None else inner.edges())
 
     def replace(self, **fields) -> BuiltinMetric:
         """This metric with the ``fields`` given (each checked: a ValueError naming it and what
@@ -289,10 +292,12 @@ def solve_options(options, metrics, t1, window_start=None):
             continue
         taken = {n for n, _ in declared}
         numbered = (f"{name}#{k}" for k in itertools.count(2))
-        declared.append((name if name not in taken else next(n for n in numbered if n not in taken), record))
+        unique = name if name not in taken else next(n for n in numbered if n not in taken)
+        declared.append((unique, record))
     options = declaring(options, tuple(declared[len(options.records):]))
     t0, t1 = float(options.t0), float(t1)
-    stops = [t0, t1, *options.window_edges, *([] if window_start is None else [float(window_start)])]
+    start = [] if window_start is None else [float(window_start)]
+    stops = [t0, t1, *options.window_edges, *start]
     new = sorted({
         e for m in metrics for e in m.edges()
         if t0 < e < t1 and all(abs(e - s) > EDGE_TOLERANCE for s in stops)
@@ -564,8 +569,11 @@ def peak_impact_force(sol: Solution, t_min="model", t_max=None, *, contact=None)
 def _coordinate(sol: Solution, coordinate) -> int:
     """``coordinate`` checked as an index into q."""
     n = sol.q.shape[-1]
-    if isinstance(coordinate, bool) or not isinstance(coordinate, numbers.Integral) or not 0 <= coordinate < n:
-        raise ValueError(f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}.")
+    integral = isinstance(coordinate, numbers.Integral) and not isinstance(coordinate, bool)
+    if not (integral and 0 <= coordinate < n):
+        raise ValueError(
+            f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
+        )
     return int(coordinate)
 
 
@@ -589,7 +597,8 @@ def _exact_peak(metric) -> BuiltinMetric:
     """``metric`` checked to be an exact peak (`peak_ball_load`, `peak_bearing_force`,
     `peak_impact_force`, `max_target_displacement`, or one of them replaced)."""
     exact = (peak_ball_load, peak_bearing_force, peak_impact_force, max_target_displacement)
-    if not (isinstance(metric, BuiltinMetric) and any(metric.function is m.function for m in exact)):
+    functions = [m.function for m in exact]
+    if not (isinstance(metric, BuiltinMetric) and any(metric.function is f for f in functions)):
         given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
         raise ValueError(
             "metric must be an exact peak (the metric, not its name): "
@@ -623,7 +632,8 @@ def _either(name, own, default, theirs):
 
     if is_default(own):
         return theirs
-    if is_default(theirs) or (finite_numbers(own) and finite_numbers(own) == finite_numbers(theirs)):
+    same = finite_numbers(own) and finite_numbers(own) == finite_numbers(theirs)
+    if is_default(theirs) or same:
         return own
     raise ValueError(
         f"peak_time got {name}={own!r} and a metric with {name}={theirs!r}: give {name} once."
@@ -735,7 +745,9 @@ class _Own(AbstractRecord, AbstractMetric):
     def __init__(self, fn: Callable, t_min: float | None = None, t_max: float | None = None):
         if not callable(fn):
             raise TypeError(f"fn must be a function fn(model, x) -> scalar; got {fn!r}.")
-        t_min, t_max = (_time(name, v, "a time [s] or None") for name, v in (("t_min", t_min), ("t_max", t_max)))
+        t_min, t_max = (
+            _time(k, v, "a time [s] or None") for k, v in (("t_min", t_min), ("t_max", t_max))
+        )
         if t_min is not None and t_max is not None and not t_max > t_min:
             raise ValueError(f"t_max must exceed t_min; got the window [{t_min}, {t_max}] s.")
         self.fn = fn
@@ -769,7 +781,8 @@ class _Own(AbstractRecord, AbstractMetric):
     def label(self) -> str:
         """``Peak(fn)`` or ``Mean(fn)``, with the window where given."""
         name = getattr(self.fn, "__qualname__", None) or repr(self.fn)
-        window = [f"{k}={v!r}" for k, v in (("t_min", self.t_min), ("t_max", self.t_max)) if v is not None]
+        edges = (("t_min", self.t_min), ("t_max", self.t_max))
+        window = [f"{k}={v!r}" for k, v in edges if v is not None]
         return f"{type(self).__name__}({', '.join([name, *window])})"
 
     def replace(self, **fields):
@@ -777,7 +790,10 @@ class _Own(AbstractRecord, AbstractMetric):
         current = {"fn": self.fn, "t_min": self.t_min, "t_max": self.t_max}
         unknown = sorted(set(fields) - set(current))
         if unknown:
-            raise TypeError(f"{type(self).__name__} has no field {', '.join(unknown)}; its fields: fn, t_min, t_max.")
+            raise TypeError(
+                f"{type(self).__name__} has no field {', '.join(unknown)}; its fields: fn, "
+                "t_min, t_max."
+            )
         return type(self)(**{**current, **fields})
 
     def _window(self):

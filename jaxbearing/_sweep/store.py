@@ -31,7 +31,7 @@ from .dataset import flag_not_finite
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
 LOCK_FILE = ".sweep.lock"  # flock'ed by the process that writes the folder; holds its pid and host
-FORMAT_VERSION = 4  # 3: max_drift, metrics.Peak and Mean; 4: metrics labelled by AbstractMetric.label
+FORMAT_VERSION = 4  # 3: max_drift, metrics.Peak and Mean; 4: metrics named by their labels
 SWEPT = "swept"  # the value of a swept parameter in the manifest's model_parameters
 NOT_RUN = -99  # status placeholder of a point not computed yet, never returned
 _NOT_COMPARED = ("versions", "chunk_points")

@@ -450,7 +450,8 @@ def metric(
     for name, value in kwargs.items():
         if not (value is None or isinstance(value, (str, numbers.Real))):
             raise TypeError(
-                f"life.metric: {name} must be a number, a string or None; got {type(value).__name__}."
+                f"life.metric: {name} must be a number, a string or None; got "
+                f"{type(value).__name__}."
             )
     return LifeMetric(method, unit, tuple((k, _plain(v)) for k, v in kwargs.items()))
 
