@@ -43,9 +43,9 @@ import numpy as np
 import optax
 
 from . import _checks, paths as _paths
+from .metrics import AbstractMetric, as_metric, solve_options
 from .solution import RESULTS, SimulationError
 from .solve import default_controller, simulate
-from .solve._options import declaring
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
@@ -78,7 +78,7 @@ def _set(model, names: Sequence[str], values):
 
 def sensitivity(
     model,
-    metric: Callable,
+    metric: AbstractMetric | Callable,
     names: Sequence[str],
     t1: float,
     ts=None,
@@ -90,8 +90,11 @@ def sensitivity(
 
     Args:
         model: the model at the design point.
-        metric: a function of a `Solution` returning a scalar (e.g. `metrics.rms_bearing_force`),
-            or a metric of your own (`metrics.Peak`, `metrics.Mean`), which it declares.
+        metric: a `metrics.AbstractMetric` (e.g. `metrics.rms_bearing_force`,
+            ``metrics.peak_ball_load.replace(bearing=1)``, `metrics.Peak`, `life.metric()`),
+            computed as ``metric.value(sol, model)`` with the model at the perturbed
+            parameters, its records declared and its window edges made stops
+            (`metrics.solve_options`); or a function of a `Solution` returning a scalar.
         names: parameter paths, e.g. ``["bearing.clearance", "impact.restitution"]``.
         t1, ts, **simulate_kwargs: passed to `simulate` (not ``throw``: a failure raises
             here, after the compiled call). Without a ``stepsize_controller`` (or with None) it
@@ -116,7 +119,8 @@ def sensitivity(
     if simulate_kwargs.get("stepsize_controller") is None:
         simulate_kwargs = {**simulate_kwargs, "stepsize_controller": derivative_controller()}
     names = tuple(names) if not isinstance(names, str) else names
-    options = declaring(simulate_kwargs.get("options"), (("metric", metric),))
+    metric = as_metric(metric)
+    options = solve_options(simulate_kwargs.get("options"), (metric,), t1, model.window_start)
     simulate_kwargs = {**simulate_kwargs, "options": options}
     x = _values(model, names, "to be differentiated")
     value, grad, failed = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
@@ -130,7 +134,7 @@ def _raise_cause(model, metric, t1, ts, simulate_kwargs):
     """The error of a failed `sensitivity`: the simulation's or the metric's own, found by
     running them on the host at the design point; else a `ValueError` saying what was not
     finite."""
-    value = np.asarray(metric(simulate(model, t1, ts, **simulate_kwargs)))
+    value = np.asarray(metric.value(simulate(model, t1, ts, **simulate_kwargs), model))
     raise ValueError(
         f"the derivatives of the metric at this design point are not finite (the metric is "
         f"{value}): a parameter may sit where the metric does not depend smoothly on "
@@ -145,8 +149,9 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
     adjoint = diffrax.ForwardMode() if mode == "forward" else None
 
     def f(values):  # (metric, whether the solve failed): failures are raised on the host
-        sol = simulate(_set(model, names, values), t1, ts, adjoint=adjoint, throw=False, **simulate_kwargs)
-        return metric(sol), sol.result != RESULTS.successful
+        at = _set(model, names, values)
+        sol = simulate(at, t1, ts, adjoint=adjoint, throw=False, **simulate_kwargs)
+        return metric.value(sol, at), sol.result != RESULTS.successful
 
     if mode == "reverse":
         (value, failed), grad = jax.value_and_grad(f, has_aux=True)(x)

@@ -39,9 +39,14 @@ A window that holds none of the solved span (e.g. a run that ends before the def
 has no value: with a concrete solution and window the metric raises a `ValueError` naming
 ``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN, as above.
 
-A metric that needs the model as well (bearing life: the bearing's geometry and the ring speeds)
-is a function ``fn(sol, model)`` wrapped in `WithModel`, which tells `jaxbearing.sweep` to pass
-each member's model; `jaxbearing.life.metric` makes one.
+Every metric is an `AbstractMetric`: the built-ins are instances of `BuiltinMetric` (called as
+functions, ``peak_ball_load(sol, t_min, t_max, bearing=1)``; ``peak_ball_load.replace(bearing=1)``
+is the metric with other defaults), `Peak` and `Mean` are metrics of your own that the solve
+records, and `jaxbearing.life.metric` is the bearing life, which reads the model too. A plain
+function of a `Solution` is a metric that reads the output samples (`as_metric`).
+`jaxbearing.sweep`, `jaxbearing.sensitivity` and `converged` ask a metric what it needs of the
+solve (`AbstractMetric.records`, ``edges``, ``reads_samples``, ``reads_fatigue``) and its
+``value(sol, model)``.
 
 `converged` says whether a metric is a result at all: it simulates the model at several solver
 tolerances and compares the metric's values (docs/metrics.md).
@@ -49,12 +54,16 @@ tolerances and compares the metric's values (docs/metrics.md).
 
 from __future__ import annotations
 
+import abc
 import dataclasses
+import inspect
+import itertools
 import math
 import numbers
 from collections.abc import Callable
-from typing import final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -73,18 +82,229 @@ from .solution import (
 )
 
 
-@dataclasses.dataclass(frozen=True)
-class WithModel:
-    """A metric of the solution and the model: ``fn(sol, model) -> scalar``.
+class AbstractMetric(eqx.Module):
+    """A scalar metric of a `Solution`, the one kind `jaxbearing.sweep`, `jaxbearing.sensitivity`
+    and `converged` take: they ask it what the solve must record (`records`, `edges`, the flags
+    ``reads_samples``: it reads the output samples; ``reads_fatigue``: it reads the bearings'
+    `solution.FatigueStats`), then its `value`, and name it by its `label`. Hashable and
+    compared by value (static fields only). A metric that needs the model (its parameters
+    seen by derivatives and sweeps) is a subclass whose `value` reads ``model``."""
 
-    `jaxbearing.sweep` calls a plain metric as ``fn(sol)`` and a WithModel as ``fn(sol, model)``
-    with the member's own model (its swept parameters set). Calling a WithModel calls ``fn``.
-    """
+    reads_samples: eqx.AbstractClassVar[bool]
+    reads_fatigue: eqx.AbstractClassVar[bool]
 
-    fn: Callable
+    @abc.abstractmethod
+    def value(self, sol: Solution, model) -> jax.Array:
+        """The metric of ``sol``, a solution of ``model``: a float64 scalar."""
 
-    def __call__(self, sol: Solution, model) -> jax.Array:
-        return self.fn(sol, model)
+    def edges(self) -> tuple[float, ...]:
+        """Window edges [s] the solve must stop at, given as numbers (none by default)."""
+        return ()
+
+    def records(self) -> tuple:
+        """((name, `solution.AbstractRecord`), ...) to declare before the solve (none by
+        default)."""
+        return ()
+
+    @property
+    def label(self) -> str:
+        """How a sweep's manifest names the metric: its class and fields."""
+        return " ".join(repr(self).split())
+
+
+def finite_numbers(*values) -> tuple[float, ...]:
+    """The finite real numbers (not bools) among ``values``, as floats: window edges [s]."""
+    return tuple(
+        float(v) for v in values
+        if isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+    )  # fmt: skip
+
+
+def _time(name, value, allowed, *, model=False):
+    """``value`` of the field ``name`` checked as a window edge [s] (a finite number, None, or
+    "model" where ``model``): a float, or a ValueError saying ``allowed``."""
+    if value is None or (model and isinstance(value, str) and value == "model"):
+        return value
+    if not finite_numbers(value):
+        raise ValueError(f"{name} must be {allowed}; got {value!r}.")
+    return float(value)
+
+
+def _index(name, value):
+    """``value`` of the field ``name`` checked as None or an index (an integer >= 0); the
+    model's count is checked when the metric is computed."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(
+            f"{name} must be None (the only one) or an index, an integer >= 0; got {value!r}."
+        )
+    return int(value)
+
+
+def _field(name, value):
+    """A field of a `BuiltinMetric` checked (`BuiltinMetric.replace`)."""
+    if name == "t_min":
+        start = 'a time [s], "model" (the model\'s window_start) or None (from t0)'
+        return _time(name, value, start, model=True)
+    if name == "t_max":
+        return _time(name, value, "a time [s] or None (to the end of the run)")
+    if name == "p":
+        if not finite_numbers(value) or float(value) != POWER:
+            raise ValueError(f"p must be {POWER}, the order the solution records; got {value!r}.")
+        return float(value)
+    if name == "metric":
+        return _exact_peak(value)
+    return _index(name, value)  # bearing, contact, coordinate
+
+
+def _shown(value) -> str:
+    """A field's value as a label shows it."""
+    return value.label if isinstance(value, AbstractMetric) else repr(value)
+
+
+class BuiltinMetric(AbstractMetric):
+    """One of jaxbearing's metrics (`peak_ball_load`, `STANDARD`, `SMOOTH`, ...): a function of a
+    `Solution` whose other arguments (``t_min``, ``t_max``, ``bearing``, ``contact``,
+    ``coordinate``, ``p``, ``metric``) are its fields. Calling it calls the function with the
+    fields as the defaults of the call; `replace` returns the metric with other fields, which is
+    what a sweep, `jaxbearing.sensitivity` or `converged` takes:
+    ``peak_ball_load.replace(bearing=1, t_min=0.05)``. Fields are readable as attributes
+    (``peak_ball_load.t_min``). It reads the solve's records, not the output samples."""
+
+    function: Callable = eqx.field(static=True)
+    arguments: tuple = eqx.field(static=True)  # ((name, value), ...) in the call's order
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = False
+
+    def __call__(self, sol: Solution, *args, **kwargs) -> jax.Array:
+        """The metric of ``sol``; arguments not given take the fields' values."""
+        given = inspect.signature(self.function).bind_partial(sol, *args, **kwargs).arguments
+        return self.function(**{**dict(self.arguments), **given})
+
+    def __getattr__(self, name):
+        for field, value in self.__dict__.get("arguments", ()):
+            if field == name:
+                return value
+        raise AttributeError(name)
+
+    def value(self, sol: Solution, model) -> jax.Array:
+        """The metric of ``sol`` with the fields' values (``model`` is not read)."""
+        return self(sol)
+
+    def edges(self) -> tuple[float, ...]:
+        """``t_min`` and ``t_max`` where numbers, and those of a ``metric`` field [s]."""
+        fields = dict(self.arguments)
+        inner = fields.get("metric")
+        own = finite_numbers(fields.get("t_min"), fields.get("t_max"))
+        return own + (() if inner is None else inner.edges())
+
+    def replace(self, **fields) -> BuiltinMetric:
+        """This metric with the ``fields`` given (each checked: a ValueError naming it and what
+        is allowed; an index is checked against the model when the metric is computed)."""
+        current = dict(self.arguments)
+        unknown = sorted(set(fields) - set(current))
+        if unknown:
+            raise TypeError(
+                f"{self.function.__name__} has no field {', '.join(unknown)}; its fields: "
+                f"{', '.join(current) or 'none'}."
+            )
+        current.update({name: _field(name, value) for name, value in fields.items()})
+        t_min, t_max = current.get("t_min"), current.get("t_max")
+        if finite_numbers(t_min) and finite_numbers(t_max) and not t_max > t_min:
+            raise ValueError(f"t_max must exceed t_min; got the window [{t_min}, {t_max}] s.")
+        return BuiltinMetric(self.function, tuple(current.items()))
+
+    @property
+    def label(self) -> str:
+        """The function's name and the fields that differ from its defaults, e.g.
+        ``peak_ball_load(t_min=0.05, bearing=1)``."""
+        defaults = dict(_defaults(self.function))
+        changed = [f"{k}={_shown(v)}" for k, v in self.arguments if v != defaults[k]]
+        name = self.function.__name__
+        return f"{name}({', '.join(changed)})" if changed else name
+
+    def __repr__(self) -> str:
+        return f"jaxbearing.metrics.{self.label}"
+
+
+def _defaults(function) -> tuple:
+    """((name, default), ...) of ``function``'s arguments after the solution."""
+    parameters = list(inspect.signature(function).parameters.values())[1:]
+    return tuple((p.name, p.default) for p in parameters)
+
+
+def _builtin(function) -> BuiltinMetric:
+    """``function`` of a `Solution` as a `BuiltinMetric` whose fields are its defaults."""
+    return BuiltinMetric(function, _defaults(function))
+
+
+@final
+class SampledMetric(AbstractMetric):
+    """A function of a `Solution`, ``fn(sol) -> scalar``, as a metric (`as_metric`): it may read
+    the output samples (``sol.ts``, ``sol.q``, ...), so a sweep solves its members with output
+    times; no window edge is seen, nothing is declared, no fatigue is recorded for it. A
+    `functools.partial` is such a function too: its keywords are not read (pass
+    ``peak_ball_load.replace(t_min=0.05)``, not a partial, for the sweep to see the edge)."""
+
+    fn: Callable = eqx.field(static=True)
+    reads_samples: ClassVar[bool] = True
+    reads_fatigue: ClassVar[bool] = False
+
+    def value(self, sol: Solution, model) -> jax.Array:
+        """``fn(sol)`` (``model`` is not read)."""
+        return self.fn(sol)
+
+    @property
+    def label(self) -> str:
+        """``module.qualname`` of the function (its repr where it has none)."""
+        name = getattr(self.fn, "__qualname__", None)
+        return repr(self.fn) if name is None else f"{getattr(self.fn, '__module__', '?')}.{name}"
+
+
+def as_metric(metric, name: str = "metric") -> AbstractMetric:
+    """``metric`` as an `AbstractMetric`: itself, or a function of a `Solution` as a
+    `SampledMetric`; a TypeError naming the argument ``name`` otherwise."""
+    if isinstance(metric, AbstractMetric):
+        return metric
+    if not callable(metric):
+        raise TypeError(
+            f"{name} must be a metric (a jaxbearing.metrics.AbstractMetric, e.g. "
+            f"jaxbearing.metrics.peak_ball_load.replace(bearing=1)) or a function of a Solution; "
+            f"got {metric!r}."
+        )
+    return SampledMetric(metric)
+
+
+def solve_options(options, metrics, t1, window_start=None):
+    """``options`` (None: the defaults) with what ``metrics`` (`AbstractMetric`) need of a solve
+    from ``options.t0`` to ``t1`` [s]: their `records` declared, and their `edges` inside (t0,
+    t1) that are not stops already (t0, t1, ``window_start`` [s] unless None, the
+    ``window_edges``) added to ``window_edges``, so that their windows end on stops. A record
+    declared already is not declared again; a name taken already gets a number (``#2``, ...),
+    in the order of ``metrics``, so that a sweep's settings are the same in every process."""
+    from .solve._options import SolveOptions, declaring  # the metrics alone never import the solver
+
+    options = SolveOptions() if options is None else options
+    declared = list(options.records)
+    for name, record in (r for m in metrics for r in m.records()):
+        if any(record == other for _, other in declared):
+            continue
+        taken = {n for n, _ in declared}
+        numbered = (f"{name}#{k}" for k in itertools.count(2))
+        unique = name if name not in taken else next(n for n in numbered if n not in taken)
+        declared.append((unique, record))
+    options = declaring(options, tuple(declared[len(options.records):]))
+    t0, t1 = float(options.t0), float(t1)
+    start = [] if window_start is None else [float(window_start)]
+    stops = [t0, t1, *options.window_edges, *start]
+    new = sorted({
+        e for m in metrics for e in m.edges()
+        if t0 < e < t1 and all(abs(e - s) > EDGE_TOLERANCE for s in stops)
+    })  # fmt: skip
+    if not new:
+        return options
+    return dataclasses.replace(options, window_edges=(*options.window_edges, *new))
 
 
 def window(ts, t_min=None, t_max=None) -> jax.Array:
@@ -311,6 +531,7 @@ def _column(sol: Solution, kind: str, index) -> int | None:
     return peak_column(kind, index, sol.n_bearings, sol.n_contacts)
 
 
+@_builtin
 def peak_ball_load(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """Largest load on any ball [N] of a bearing joint (``bearing``: index into
     ``model.bearings``; None: the only one) in the window, the maximum of each solver step's
@@ -318,6 +539,7 @@ def peak_ball_load(sol: Solution, t_min="model", t_max=None, *, bearing=None) ->
     return _peak(sol, _column(sol, "ball_load", bearing_index(sol, bearing)), t_min, t_max)
 
 
+@_builtin
 def peak_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """Largest magnitude |F| of a bearing joint's resultant (Eq. 28) [N] in the window, the
     maximum of each solver step's interpolant (`SegmentStats`); ``bearing`` as in
@@ -325,6 +547,7 @@ def peak_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None
     return _peak(sol, _column(sol, "bearing_force", bearing_index(sol, bearing)), t_min, t_max)
 
 
+@_builtin
 def rms_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """Root-mean-square of a bearing joint's |F| over the window (time-weighted) [N]:
     Gauss–Legendre quadrature of each step's interpolant (exact for integrands of degree <= 5
@@ -334,6 +557,7 @@ def rms_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None)
     return jnp.sqrt(total / duration)
 
 
+@_builtin
 def peak_impact_force(sol: Solution, t_min="model", t_max=None, *, contact=None) -> jax.Array:
     """Largest normal impact force [N] of a contact (``contact``: index into
     ``model.contacts``; None: the only one) in the window, the maximum of each solver step's
@@ -342,6 +566,18 @@ def peak_impact_force(sol: Solution, t_min="model", t_max=None, *, contact=None)
     return _peak(sol, _column(sol, "contact_force", contact_index(sol, contact)), t_min, t_max)
 
 
+def _coordinate(sol: Solution, coordinate) -> int:
+    """``coordinate`` checked as an index into q."""
+    n = sol.q.shape[-1]
+    integral = isinstance(coordinate, numbers.Integral) and not isinstance(coordinate, bool)
+    if not (integral and 0 <= coordinate < n):
+        raise ValueError(
+            f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
+        )
+    return int(coordinate)
+
+
+@_builtin
 def max_target_displacement(
     sol: Solution, t_min="model", t_max=None, coordinate=None, *, contact=None
 ) -> jax.Array:
@@ -351,34 +587,56 @@ def max_target_displacement(
     target, body 3); a model without impact contact has no target, and the value is 0 (nothing
     is struck), as `peak_impact_force`'s."""
     if coordinate is not None:
-        n = sol.q.shape[-1]
-        if isinstance(coordinate, bool) or not isinstance(coordinate, numbers.Integral) or not 0 <= coordinate < n:
-            raise ValueError(
-                f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
-            )
-        return _peak(sol, _column(sol, "displacement", int(coordinate)), t_min, t_max)
+        return _peak(sol, _column(sol, "displacement", _coordinate(sol, coordinate)), t_min, t_max)
     c = contact_index(sol, contact)
     target = None if c is None else sol.targets[c]
     return _peak(sol, _column(sol, "displacement", target), t_min, t_max)
 
 
-def _peak_column(sol: Solution, metric, bearing, contact) -> int | None:
-    """The `SegmentStats` column of an exact peak metric (None: an element the model lacks)."""
-    if metric in (peak_ball_load, peak_bearing_force):
-        kind = "ball_load" if metric is peak_ball_load else "bearing_force"
+def _exact_peak(metric) -> BuiltinMetric:
+    """``metric`` checked to be an exact peak (`peak_ball_load`, `peak_bearing_force`,
+    `peak_impact_force`, `max_target_displacement`, or one of them replaced)."""
+    exact = (peak_ball_load, peak_bearing_force, peak_impact_force, max_target_displacement)
+    functions = [m.function for m in exact]
+    if not (isinstance(metric, BuiltinMetric) and any(metric.function is f for f in functions)):
+        given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
+        raise ValueError(
+            "metric must be an exact peak (the metric, not its name): "
+            "jaxbearing.metrics.peak_ball_load, peak_bearing_force, peak_impact_force or "
+            f"max_target_displacement, or one of them .replace(...)d; got {given}."
+        )
+    return metric
+
+
+def _peak_column(sol: Solution, metric: BuiltinMetric, bearing, contact, coordinate) -> int | None:
+    """The `SegmentStats` column of the exact peak ``metric`` of the element named (None: an
+    element the model lacks)."""
+    if metric.function in (peak_ball_load.function, peak_bearing_force.function):
+        kind = "ball_load" if metric.function is peak_ball_load.function else "bearing_force"
         return _column(sol, kind, bearing_index(sol, bearing))
-    if metric is peak_impact_force:
+    if metric.function is peak_impact_force.function:
         return _column(sol, "contact_force", contact_index(sol, contact))
-    if metric is max_target_displacement:
-        c = contact_index(sol, contact)
-        if c is None:
-            raise ValueError("This solution has no impact target (its model has no contact).")
-        return _column(sol, "displacement", sol.targets[c])
-    given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
+    if coordinate is not None:
+        return _column(sol, "displacement", _coordinate(sol, coordinate))
+    c = contact_index(sol, contact)
+    if c is None:
+        raise ValueError("This solution has no impact target (its model has no contact).")
+    return _column(sol, "displacement", sol.targets[c])
+
+
+def _either(name, own, default, theirs):
+    """peak_time's ``own`` value of field ``name``, or its metric's (``theirs``) where ``own``
+    is the default; a ValueError where both are set and differ."""
+    def is_default(v):
+        return v is None if default is None else (isinstance(v, str) and v == default)
+
+    if is_default(own):
+        return theirs
+    same = finite_numbers(own) and finite_numbers(own) == finite_numbers(theirs)
+    if is_default(theirs) or same:
+        return own
     raise ValueError(
-        "metric must be the function (not its name) of an exact peak: "
-        "jaxbearing.metrics.peak_ball_load, peak_bearing_force, peak_impact_force or "
-        f"max_target_displacement; got {given}."
+        f"peak_time got {name}={own!r} and a metric with {name}={theirs!r}: give {name} once."
     )
 
 
@@ -391,17 +649,26 @@ def _where_peak(sol: Solution, column, t_min, t_max):
     return i, peaks[i], ok & jnp.any(inside)
 
 
+@_builtin
 def peak_time(
-    sol: Solution, metric, t_min="model", t_max=None, *, bearing=None, contact=None
+    sol: Solution, metric=None, t_min="model", t_max=None, *, bearing=None, contact=None
 ) -> jax.Array:
     """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
-    `peak_impact_force`, or `max_target_displacement` of the target; of the bearing joint or
-    contact named by ``bearing`` / ``contact`` as there) is attained in the window: the earliest
-    recorded point that attains it (`SegmentStats.peak_times`), so independent of the output
-    times; NaN where the peak is 0 (the element never acted in the window: no impact). No
-    derivative: the point that attains a maximum jumps between steps. In a sweep, pass e.g.
-    ``functools.partial(peak_time, metric=peak_impact_force)``."""
-    column = _peak_column(sol, metric, bearing, contact)
+    `peak_impact_force`, or `max_target_displacement`; of the bearing joint or contact named by
+    ``bearing`` / ``contact`` as there, or by the metric's own fields:
+    ``peak_time(sol, peak_ball_load.replace(bearing=1))`` is bearing 1's) is attained in the
+    window: the earliest recorded point that attains it (`SegmentStats.peak_times`), so
+    independent of the output times; NaN where the peak is 0 (the element never acted in the
+    window: no impact). The window and the element are peak_time's where given, else the
+    metric's. No derivative: the point that attains a maximum jumps between steps. In a sweep,
+    pass ``peak_time.replace(metric=peak_impact_force)``."""
+    metric = _exact_peak(metric)
+    theirs = dict(metric.arguments)
+    t_min = _either("t_min", t_min, "model", theirs["t_min"])
+    t_max = _either("t_max", t_max, None, theirs["t_max"])
+    bearing = _either("bearing", bearing, None, theirs.get("bearing"))
+    contact = _either("contact", contact, None, theirs.get("contact"))
+    column = _peak_column(sol, metric, bearing, contact, theirs.get("coordinate"))
     if column is None:  # no contact: nothing was struck, at no time
         _inside(sol, t_min, t_max)  # the window's checks
         return jnp.asarray(jnp.nan)
@@ -410,6 +677,7 @@ def peak_time(
     return jnp.where(has_value & (peak > 0.0), time, jnp.nan)
 
 
+@_builtin
 def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """Every ball's load [N] of a bearing joint (``bearing`` as in `peak_ball_load`) at the time
     of its `peak_ball_load` in the window (its `peak_time`), (N_b,), ball 1 first: the load
@@ -420,6 +688,7 @@ def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> 
     return jnp.where(has_value, sol.segments.peak_loads[b][i], jnp.nan)
 
 
+@_builtin
 def peak_ball(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """The ball that carries `peak_ball_load` in the window: its column of the bearing's
     ``ball_loads`` (0 = ball 1), an int; -1 for a window without value (traced)."""
@@ -427,6 +696,7 @@ def peak_ball(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.
     return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 
+@_builtin
 def smooth_peak_ball_load(
     sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
 ) -> jax.Array:
@@ -440,6 +710,7 @@ def smooth_peak_ball_load(
     return _power_mean(sol, column, t_min, t_max, p, n_balls)
 
 
+@_builtin
 def smooth_peak_bearing_force(
     sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
 ) -> jax.Array:
@@ -450,6 +721,7 @@ def smooth_peak_bearing_force(
     return _power_mean(sol, column, t_min, t_max, p)
 
 
+@_builtin
 def smooth_peak_impact_force(
     sol: Solution, t_min="model", t_max=None, p=16.0, *, contact=None
 ) -> jax.Array:
@@ -461,24 +733,26 @@ def smooth_peak_impact_force(
     return _power_mean(sol, column, t_min, t_max, p)
 
 
-class _Own(AbstractRecord):
+class _Own(AbstractRecord, AbstractMetric):
     """What `Peak` and `Mean` share: declared by name before the solve
-    (``SolveOptions(records={name: metric})``), recorded from every accepted step, and read
-    from the solution by calling the metric on it."""
+    (``SolveOptions(records={name: metric})``, or by a sweep, `jaxbearing.sensitivity` and
+    `converged` from `records`), recorded from every accepted step, and read from the
+    solution (`value`, or calling the metric on it)."""
+
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = False
 
     def __init__(self, fn: Callable, t_min: float | None = None, t_max: float | None = None):
         if not callable(fn):
             raise TypeError(f"fn must be a function fn(model, x) -> scalar; got {fn!r}.")
-        for name, value in (("t_min", t_min), ("t_max", t_max)):
-            if value is not None and (
-                isinstance(value, (bool, str)) or not isinstance(value, numbers.Real) or not math.isfinite(value)
-            ):
-                raise ValueError(f"{name} must be a time [s] or None; got {value!r}.")
+        t_min, t_max = (
+            _time(k, v, "a time [s] or None") for k, v in (("t_min", t_min), ("t_max", t_max))
+        )
         if t_min is not None and t_max is not None and not t_max > t_min:
             raise ValueError(f"t_max must exceed t_min; got the window [{t_min}, {t_max}] s.")
         self.fn = fn
-        self.t_min = None if t_min is None else float(t_min)
-        self.t_max = None if t_max is None else float(t_max)
+        self.t_min = t_min
+        self.t_max = t_max
 
     def __call__(self, sol: Solution) -> jax.Array:
         """The value the solve recorded for this metric (`Solution.records`)."""
@@ -488,8 +762,39 @@ class _Own(AbstractRecord):
         raise ValueError(
             "This metric was not recorded by the solve: declare it before, as simulate(..., "
             "options=jaxbearing.SolveOptions(records={'name': metric})) (jaxbearing.sweep, "
-            "sensitivity and tune declare the metrics they are given)."
+            "sensitivity and converged declare the metrics they are given)."
         )
+
+    def value(self, sol, model) -> jax.Array:
+        """The value the solve recorded in ``sol``, a solution of ``model`` (as calling it).
+        The solve calls it as ``value(model, x)``, x a `solution.Instant`: then ``fn(model, x)``
+        (`solution.AbstractRecord.value`)."""
+        if not isinstance(sol, Solution):  # the solve's call (`solution.record_values`)
+            return AbstractRecord.value(self, sol, model)
+        return self(sol)
+
+    def records(self) -> tuple:
+        """This metric under its label (`solve_options` numbers labels that repeat)."""
+        return ((self.label, self),)
+
+    @property
+    def label(self) -> str:
+        """``Peak(fn)`` or ``Mean(fn)``, with the window where given."""
+        name = getattr(self.fn, "__qualname__", None) or repr(self.fn)
+        edges = (("t_min", self.t_min), ("t_max", self.t_max))
+        window = [f"{k}={v!r}" for k, v in edges if v is not None]
+        return f"{type(self).__name__}({', '.join([name, *window])})"
+
+    def replace(self, **fields):
+        """This metric with other ``fn``, ``t_min`` or ``t_max`` (checked as by the constructor)."""
+        current = {"fn": self.fn, "t_min": self.t_min, "t_max": self.t_max}
+        unknown = sorted(set(fields) - set(current))
+        if unknown:
+            raise TypeError(
+                f"{type(self).__name__} has no field {', '.join(unknown)}; its fields: fn, "
+                "t_min, t_max."
+            )
+        return type(self)(**{**current, **fields})
 
     def _window(self):
         return ("model" if self.t_min is None else self.t_min), self.t_max
@@ -522,6 +827,7 @@ class Mean(_Own):
         return total / duration
 
 
+@_builtin
 def max_drift(sol: Solution) -> jax.Array:
     """The largest constraint violation max |Phi(q, t)| [m or rad] at the end of every accepted
     step of the whole run (`Solution.max_drift`; `solution.drift_bound` says how much is too
@@ -536,7 +842,7 @@ STANDARD = {
     "peak_impact_force": peak_impact_force,
     "max_target_displacement": max_target_displacement,
 }
-"""The standard metrics (name -> function of a Solution), used by default in sweeps."""
+"""The standard metrics (name -> `BuiltinMetric`), used by default in sweeps."""
 
 SMOOTH = {
     "smooth_peak_ball_load": smooth_peak_ball_load,
@@ -572,11 +878,11 @@ def converged(
 
     A metric that moves with the tolerance by more than that (a peak of a chaotic rattle, a
     very stiff contact) is not a result at any one tolerance: tighten the tolerances, shorten
-    the span or report the spread with the value. ``metric`` is a function of a `Solution`
-    (or a `WithModel`); ``ts`` and ``simulate_kwargs`` go to `simulate`, which runs once per
-    tolerance (one compilation for all)."""
+    the span or report the spread with the value. ``metric`` is an `AbstractMetric` (declared,
+    its window edges added to the solve's stops: `solve_options`) or a function of a
+    `Solution`; ``ts`` and ``simulate_kwargs`` go to `simulate`, which runs once per tolerance
+    (one compilation for all)."""
     from .solve import default_controller, simulate  # the metrics alone never import the solver
-    from .solve._options import declaring
 
     rtols = tuple(float(r) for r in rtols)
     if len(rtols) < 2:
@@ -585,12 +891,13 @@ def converged(
         raise ValueError(f"tolerance must be a relative spread > 0; got {tolerance!r}.")
     if "stepsize_controller" in simulate_kwargs:
         raise TypeError("converged sets the step-size controller itself, one for each of rtols.")
-    options = declaring(simulate_kwargs.pop("options", None), (("metric", metric),))
+    metric = as_metric(metric)
+    options = solve_options(simulate_kwargs.pop("options", None), (metric,), t1, model.window_start)
     values = []
     for rtol in rtols:
         controller = default_controller(rtol=rtol, atol=rtol / 100)
         sol = simulate(model, t1, ts, stepsize_controller=controller, options=options, **simulate_kwargs)
-        values.append(float(metric(sol, model) if isinstance(metric, WithModel) else metric(sol)))
+        values.append(float(metric.value(sol, model)))
     v = np.asarray(values)
     scale = np.abs(v).max()
     if not np.isfinite(v).all():

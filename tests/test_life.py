@@ -479,7 +479,8 @@ def test_bad_inputs_raise_naming_the_parameter(call, name):
 
 
 def test_life_as_a_metric_of_solution_and_model(model, simulated):
-    """`life.metric` is the life of `iso_life`/`lp_life` as a `metrics.WithModel` (sweeps pass
+    """`life.metric` is the life of `iso_life`/`lp_life` as a `life.LifeMetric`, an
+    `AbstractMetric` that reads the model and the fatigue records, not the samples (sweeps pass
     it the member's model); tests/test_sweep.py checks it inside a sweep against single runs."""
     sol = simulated[0]
     kw = {"groove_inner": 0.5219, "groove_outer": 0.5194}
@@ -490,9 +491,14 @@ def test_life_as_a_metric_of_solution_and_model(model, simulated):
         (life.metric("lp", **kw), lp.l10_hours),
         (life.metric("lp", "mrev", **kw), lp.l10),
     ]
-    for fn, expected in cases:
-        assert isinstance(fn, jb.metrics.WithModel)
-        assert float(fn(sol, model)) == float(expected)
+    for metric, expected in cases:
+        assert isinstance(metric, jb.metrics.AbstractMetric)
+        assert metric.reads_fatigue and not metric.reads_samples and metric.records() == ()
+        assert float(metric.value(sol, model)) == float(expected) == float(metric(sol, model))
+    assert life.metric("lp", "mrev", **kw).label == "life.metric('lp', unit='mrev', groove_inner=0.5219, groove_outer=0.5194)"
+    assert life.metric(t_min=0.05, t_max=0.08).edges() == (0.05, 0.08)
+    assert life.metric(t_min="model").edges() == ()
+    assert life.metric("iso", t_min=0.05) == life.metric("iso", t_min=0.05)  # compared by value
     assert float(iso.l10_hours) != float(lp.l10_hours)
     assert float(life.l10_hours(sol, model)) == float(iso.l10_hours)
     with pytest.raises(ValueError, match="method must be 'iso' or 'lp'; got 'weibull'"):

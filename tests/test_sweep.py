@@ -47,9 +47,9 @@ MAX_STEPS = 1500
 CHUNK = 2  # points per device per chunk
 GROOVES = {"groove_inner": 0.5219, "groove_outer": 0.5194}  # those of cases.skf98205
 METRICS = {  # window from t = 0: the standard one starts at 0.04 s
-    "peak_ball_load": functools.partial(M.peak_ball_load, t_min=0.0),
-    "rms_bearing_force": functools.partial(M.rms_bearing_force, t_min=0.0),
-    # life needs the model as well: metrics.WithModel functions of (solution, model)
+    "peak_ball_load": M.peak_ball_load.replace(t_min=0.0),
+    "rms_bearing_force": M.rms_bearing_force.replace(t_min=0.0),
+    # life needs the model as well: each member's own (LifeMetric.value(sol, model))
     "l10_iso_hours": jb.life.metric("iso", t_min=0.0),
     "l10_lp_mrev": jb.life.metric("lp", unit="mrev", t_min=0.0, **GROOVES),
 }
@@ -315,23 +315,22 @@ def test_default_output_times_are_what_the_metrics_need():
         for name, fn in exact.items():
             np.testing.assert_allclose(ds[name].sel({"bearing.clearance": c}), fn(sol), rtol=1e-5, err_msg=name)
 
-    # the rule: jaxbearing's segment metrics (also inside functools.partial), the life and
-    # functions marked sample_free are sample-free; anything else is not
+    # the rule: each metric says whether it reads the samples (`AbstractMetric.reads_samples`):
+    # jaxbearing's, replaced or not, and the life do not; a function of a Solution does, and so
+    # does a functools.partial, whose keywords are not read
     def own(sol):
         return M.peak_ball_load(sol, t_min=0.0)
 
-    when = functools.partial(M.peak_time, metric=M.peak_impact_force)
-    free = (*exact.values(), M.smooth_peak_ball_load, when, M.peak_ball)
-    assert [_sweep.needs_samples(fn) for fn in (*free, own)] == [False] * len(free) + [True]
-    assert not any(_sweep.needs_samples(METRICS[name]) for name in ("l10_iso_hours", "l10_lp_mrev"))
-    items = (*METRICS.items(), ("own", own))
+    when = M.peak_time.replace(metric=M.peak_impact_force)
+    free = (*exact.values(), M.smooth_peak_ball_load, when, M.peak_ball, METRICS["l10_iso_hours"])
+    sampled = (own, functools.partial(M.peak_ball_load, t_min=0.0))
+    assert [M.as_metric(m).reads_samples for m in (*free, *sampled)] == [False] * len(free) + [True] * 2
+    items = (*METRICS.items(), ("own", M.as_metric(own)))
     times = _sweep.arguments.output_times(items, 0.0, T1, None)
     np.testing.assert_array_equal(times, np.linspace(0.0, T1, _sweep.DEFAULT_SAMPLES))
-    own.sample_free = True
-    assert not _sweep.needs_samples(own)
     # members record the life's integrals only for a metric that reads them
-    assert _sweep.arguments.needs_fatigue(METRICS["l10_lp_mrev"])
-    assert not any(_sweep.arguments.needs_fatigue(fn) for fn in (*exact.values(), own))
+    assert METRICS["l10_lp_mrev"].reads_fatigue
+    assert not any(M.as_metric(m).reads_fatigue for m in (*exact.values(), own))
 
 
 def test_interrupted_sweep_resumes_without_recomputing(tmp_path, monkeypatch, grid_result):

@@ -11,7 +11,6 @@ quick to compile) over 0.01 s, two clearances, one point a chunk (two chunks).
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import os
 import subprocess
@@ -19,6 +18,7 @@ import sys
 import tempfile
 import textwrap
 import threading
+from typing import ClassVar
 
 import jax.numpy as jnp
 import numpy as np
@@ -36,19 +36,24 @@ HIDDEN = 0.002  # [s] the same, inside a function the sweep cannot read it from
 LOAD_LIMIT = 150.0  # [N] between the two members' peak ball loads over 0-0.01 s (121, 174 N)
 
 
-def hidden_window(sol):
+class HiddenWindow(M.AbstractMetric):
     """The peak ball load from HIDDEN on where the peak from t0 exceeds LOAD_LIMIT, else 0:
-    NaN for the member above it (HIDDEN is not a stop), a finite value for the other."""
-    whole = M.peak_ball_load(sol, t_min=0.0)
-    return jnp.where(whole > LOAD_LIMIT, M.peak_ball_load(sol, t_min=HIDDEN), 0.0)
+    NaN for the member above it (HIDDEN is not a stop: the edge is inside `value`, which
+    `edges` does not name), a finite value for the other. It reads the solve's records only:
+    members run as one loop."""
 
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = False
 
-hidden_window.sample_free = True  # reads the solve's records only: members run as one loop
+    def value(self, sol, model):
+        whole = M.peak_ball_load(sol, t_min=0.0)
+        return jnp.where(whole > LOAD_LIMIT, M.peak_ball_load(sol, t_min=HIDDEN), 0.0)
+
 
 METRICS = {
-    "peak_ball_load": functools.partial(M.peak_ball_load, t_min=0.0),
-    "late_peak": functools.partial(M.peak_ball_load, t_min=LATE),  # the sweep adds the stop
-    "hidden": hidden_window,
+    "peak_ball_load": M.peak_ball_load.replace(t_min=0.0),
+    "late_peak": M.peak_ball_load.replace(t_min=LATE),  # the sweep adds the stop
+    "hidden": HiddenWindow(),
 }
 TESTS = os.path.dirname(os.path.abspath(__file__))
 
@@ -145,10 +150,14 @@ def test_the_failure_report_names_the_metric():
 
 
 def test_a_window_edge_known_before_the_solve_becomes_a_stop(finished):
-    """A metric's t_min given as a number (functools.partial) is added to the members'
-    window_edges, so the metric is exact: the value of a single run asked for that stop."""
-    ds, _ = finished
+    """A metric's t_min given as a number (``peak_ball_load.replace(t_min=LATE)``: its
+    ``edges()``) is added to the members' window_edges, so the metric is exact: the value of a
+    single run asked for that stop; the manifest names it by its label."""
+    ds, out = finished
     assert json.loads(ds.attrs["simulate_kwargs"])["window_edges"] == [LATE]
+    labels = json.loads((out / "manifest.json").read_text())["metrics"]
+    assert labels == {"peak_ball_load": "peak_ball_load(t_min=0.0)", "late_peak": f"peak_ball_load(t_min={LATE})",
+                      "hidden": "HiddenWindow()", "max_drift": "max_drift"}
     for clearance, value in zip(POINTS["bearing.clearance"], ds.late_peak.values):
         model = rotor(clearance)
         sol = jb.simulate_one_loop(model, T1, options=jb.SolveOptions(window_edges=(LATE,)))

@@ -261,8 +261,9 @@ BAD_INPUTS = [
      r"t_max must be a time \[s\], one number, the window's end, or None \(to the end of the run\); "
      r"got '1 ms'\."),
     (lambda: jb.metrics.peak_time(_short_solution(), "peak_ball_load"),
-     r"metric must be the function \(not its name\) of an exact peak: jaxbearing\.metrics\.peak_ball_load, "
-     r"peak_bearing_force, peak_impact_force or max_target_displacement; got the string 'peak_ball_load'\."),
+     r"metric must be an exact peak \(the metric, not its name\): jaxbearing\.metrics\.peak_ball_load, "
+     r"peak_bearing_force, peak_impact_force or max_target_displacement, or one of them \.replace\(\.\.\.\)d; "
+     r"got the string 'peak_ball_load'\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=10.0)),
      r"rtol must be below 1 \(a relative error\); got rtol = 10\.0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,

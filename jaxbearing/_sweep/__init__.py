@@ -12,10 +12,12 @@ devices, resumable.
 returns an `xarray.Dataset`: one data variable per metric plus ``status`` (the `RESULTS` code of
 the solve, 0 = successful) and ``failed`` (status != 0; the metrics of a failed member are NaN).
 
-A metric is a function of the member's `Solution`, ``fn(sol) -> scalar``; one that also needs
-the model (bearing life needs the bearing's geometry and the ring speeds) is wrapped in
-`metrics.WithModel` and called ``fn(sol, model)`` with the member's own model, its swept
-parameters set. `life.metric` makes the L10 life such a metric:
+A metric is a `metrics.AbstractMetric`, computed as ``metric.value(sol, model)`` with the
+member's own `Solution` and model (its swept parameters set): jaxbearing's own
+(``metrics.peak_ball_load.replace(bearing=1)``), `metrics.Peak` and `metrics.Mean`, or the L10
+life of `life.metric`, which reads the model (the bearing's geometry and ring speeds). A plain
+function of a `Solution`, ``fn(sol) -> scalar``, is a metric that reads the output samples
+(`metrics.as_metric`):
 
     metrics = {**jb.metrics.STANDARD,
                "l10_hours": jb.life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
@@ -41,14 +43,14 @@ How it runs
   accelerators alike (docs/platforms.md); else as `simulate`. Both repeat the same
   integrator core, so the metrics agree to the solver's accuracy. The manifest records
   ``"solve": "one_loop"`` then, and the dataset's ``solve`` attribute says which ran.
-- Output times. Without ``ts`` a member is solved with just the output times its metrics
-  need: ``[t0, t1]`` when every metric comes from the solve's per-step records
-  (`Solution.segments` and `.fatigue`: `metrics.STANDARD`, `metrics.SMOOTH`, `life.metric`, and
-  any function marked with the attribute ``sample_free = True``), so a member's memory does not
-  grow with an output count; `DEFAULT_SAMPLES` (2001) equally spaced times when a metric reads
-  the samples (any other function; `arguments.needs_samples` is the rule). Members record the
-  life's integrals (`Solution.fatigue`) only when a metric reads them (`life.metric`;
-  `arguments.needs_fatigue`), unless ``fatigue`` is passed.
+- What a member records comes from its metrics alone (`metrics.AbstractMetric`'s interface):
+  without ``ts`` it is solved with just the output times they need, ``[t0, t1]`` when none
+  reads the output samples (``reads_samples``; jaxbearing's metrics, `metrics.Peak`,
+  `metrics.Mean` and `life.metric` read the solve's records), so a member's memory does not
+  grow with an output count, else `DEFAULT_SAMPLES` (2001) equally spaced times (a plain
+  function). Members record the life's integrals (`Solution.fatigue`) only when a metric reads
+  them (``reads_fatigue``: `life.metric`), unless ``fatigue`` is passed; each metric's
+  ``records()`` are declared, and its ``edges()`` become stops (`metrics.solve_options`).
 - Chunk size. On CPU devices the default is 32 points per device: the members run one after
   another, so the chunk sets how often results are written and what an interruption loses,
   against a fixed cost a chunk (dispatch, gathering, writing a file). The measured rates and memory per member are in
@@ -68,10 +70,10 @@ How it runs
   or infinite gets ``status = NOT_FINITE`` (-2, ``failed``); its message names those metrics
   and the usual cause (a window edge that is not a stop of the solve, or a window outside the
   solved span); its other metrics are kept. Window edges given to a metric as numbers
-  (``functools.partial(metrics.peak_ball_load, t_min=0.09)``, `life.metric`'s ``t_min``) are
-  added to the members' ``window_edges`` where they are not stops already
-  (`arguments.with_metric_edges`), so those metrics are exact; an edge hidden inside a function
-  cannot be seen before the solve and gives NaN, so its member fails.
+  (``metrics.peak_ball_load.replace(t_min=0.09)``, `life.metric`'s ``t_min``) are added to the
+  members' ``window_edges`` where they are not stops already (`metrics.solve_options`), so
+  those metrics are exact; an edge hidden inside a function (a `functools.partial` too) cannot
+  be seen before the solve and gives NaN, so its member fails.
 - Failed members are reported with their parameters: one `RuntimeWarning` at the end lists
   them (point index, parameter values, result name and message, up to 10 lines), and
   ``attrs["failures"]`` (JSON) holds them all, each as ``{"index", "point": {path: value},
@@ -82,8 +84,10 @@ How it runs
 
 Output folder (``out=``)
 ------------------------
-``manifest.json`` records what the sweep is (parameter names and values, grid or list, metric
-names, t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
+``manifest.json`` records what the sweep is (its format version, ``store.FORMAT_VERSION``,
+4 since metrics are labelled by their ``AbstractMetric.label``: a folder of another version is
+refused as another sweep; parameter names and values, grid or list, metric names and labels,
+t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
 path (`provenance.parameters`; the swept ones as ``"swept"``: their values are the
 coordinates) and a fingerprint of the model: a hash of its tree structure and of the bytes of
 all its array leaves, with the swept leaves blanked), and the package versions that started it
@@ -143,7 +147,7 @@ files, resume), `dataset` (the Dataset, ``results.nc``, the failure report), `pr
 bar) and `driver` (`sweep`, a list of these stages).
 """
 
-from .arguments import DEFAULT_SAMPLES, default_chunk_size, needs_samples
+from .arguments import DEFAULT_SAMPLES, default_chunk_size
 from .driver import sweep
 from .kernel import NOT_FINITE, RAISED
 from .store import MANIFEST, RESULTS_FILE
@@ -155,6 +159,5 @@ __all__ = [
     "RAISED",
     "RESULTS_FILE",
     "default_chunk_size",
-    "needs_samples",
     "sweep",
 ]

@@ -1,14 +1,13 @@
 """The sweep's arguments, checked and resolved before anything runs: parameters and points,
-metrics (and whether they need output samples), simulate's settings, output times, chunk size."""
+metrics (`metrics.AbstractMetric`s, which say what they need of the solve), simulate's
+settings, output times, chunk size."""
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import inspect
 import math
-import numbers
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import NamedTuple
 
 import equinox as eqx
@@ -22,25 +21,14 @@ from ..multibody import Mechanism
 from ..solve import default_controller, default_max_segments, default_solver
 from ..solve import simulate, simulate_one_loop
 from .._checks import checked_controller, checked_span, checked_ts, window_stops
-from ..solve._options import declaring
 from ..solve._simulate import SEGMENT_STEPS, _checked_options
-from ..solution import AbstractRecord
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
 DEFAULT_SAMPLES = 2001  # output times when ts is not given and a metric reads the samples
-SAMPLE_FREE = "sample_free"  # attribute of a metric function that does not read the samples
-READS_FATIGUE = "reads_fatigue"  # attribute of a metric function that reads sol.fatigue
 RESERVED = ("status", "failed", "point", "max_drift")
 NOT_FORWARDED = ("throw", "progress", "adjoint")  # simulate arguments that sweep sets itself
 SOLVES = {"segments": simulate, "one_loop": simulate_one_loop}  # what a member's solve calls
-# jaxbearing's own metrics that come from the solve's per-step records (`Solution.segments`),
-# whatever the output times: recognised as sample-free without the attribute
-_SEGMENT_METRICS = frozenset(
-    {*_metrics.STANDARD.values(), *_metrics.SMOOTH.values(), _metrics.peak_time, _metrics.peak_ball,
-     _metrics.max_drift}
-)
-
 
 class Request(NamedTuple):
     """A checked sweep: ``points`` (n_points, n_params) in the order of ``names``; ``shape``
@@ -51,7 +39,7 @@ class Request(NamedTuple):
     grid: bool
     points: np.ndarray
     shape: tuple[int, ...]
-    metric_items: tuple[tuple[str, Callable], ...]
+    metric_items: tuple[tuple[str, _metrics.AbstractMetric], ...]
     t0: float
     t1: float
     ts: np.ndarray
@@ -72,9 +60,9 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
     t0, t1 = (float(t) for t in checked_span(options.t0, t1))
     window_stops(options.window_edges, model.window_start)
     fixed_start = None if "window_start" in names else model.window_start  # a stop, unless swept
-    options = with_metric_edges(declaring(options, items), items, t0, t1, fixed_start)
+    options = _metrics.solve_options(options, [m for _, m in items], t1, fixed_start)
     if options.fatigue is None:
-        options = dataclasses.replace(options, fatigue=any(needs_fatigue(fn) for _, fn in items))
+        options = dataclasses.replace(options, fatigue=any(m.reads_fatigue for _, m in items))
     if solve == "segments" and options.max_segments is None:  # resolved here, so that the manifest records it
         segments = default_max_segments(model, t0, t1, options.segment_steps or SEGMENT_STEPS)
         options = dataclasses.replace(options, max_segments=segments)
@@ -86,45 +74,16 @@ def request(model, params, metrics, grid, t1, ts, simulate_kwargs) -> Request:
         raise ValueError(
             f"The standard metrics read the model's window from t = {float(start):g} s "
             f"(model.window_start), which t1 = {t1} s does not reach: simulate longer, or pass "
-            "metrics with an earlier t_min (e.g. functools.partial(jb.metrics.peak_ball_load, "
-            "t_min=None))."
+            "metrics with an earlier t_min (e.g. jb.metrics.peak_ball_load.replace(t_min=None))."
         )
     return Request(names, axes, bool(grid), points, shape, items, t0, t1, ts, sim_kwargs, solve)
-
-
-def metric_edges(items) -> set[float]:
-    """The window edges [s] the metrics fix before any solve: the numbers given as ``t_min`` or
-    ``t_max`` to a `functools.partial` of a metric (inside a `metrics.WithModel` too)."""
-    edges = set()
-    for _, fn in items:
-        inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
-        keywords = inner.keywords if isinstance(inner, functools.partial) else {}
-        for value in (keywords.get("t_min"), keywords.get("t_max")):
-            if isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value):
-                edges.add(float(value))
-    return edges
-
-
-def with_metric_edges(options, items, t0, t1, window_start):
-    """``options`` with the metrics' window edges (`metric_edges`) inside (t0, t1) that are not
-    stops of the solve (t0, t1, the model's ``window_start`` [s] unless None, the
-    ``window_edges``) added to its ``window_edges``: the members' windows then end on stops and
-    the metrics are exact, not NaN."""
-    stops = [t0, t1, *options.window_edges, *([] if window_start is None else [float(window_start)])]
-    new = sorted(
-        e for e in metric_edges(items)
-        if t0 < e < t1 and all(abs(e - s) > _metrics.EDGE_TOLERANCE for s in stops)
-    )  # fmt: skip
-    if not new:
-        return options
-    return dataclasses.replace(options, window_edges=(*options.window_edges, *new))
 
 
 def driver_of(items, ts) -> str:
     """How the members run (`SOLVES`): "one_loop" (`simulate_one_loop`, the faster in batches)
     where no output times are asked for and no metric reads the samples, else "segments"
     (`simulate`). Both repeat the same integrator core."""
-    if ts is None and not any(needs_samples(fn) for _, fn in items):
+    if ts is None and not any(m.reads_samples for _, m in items):
         return "one_loop"
     return "segments"
 
@@ -178,54 +137,32 @@ def grid_points(names, axes, grid):
 
 
 def metric_items(metrics, names):
-    """((name, fn), ...) of the metrics (default `metrics.STANDARD`)."""
+    """((name, `metrics.AbstractMetric`), ...) of the metrics (default `metrics.STANDARD`; a
+    function of a Solution: `metrics.as_metric`), then ``max_drift``."""
     metrics = _metrics.STANDARD if metrics is None else metrics
     if not isinstance(metrics, Mapping) or not metrics:
         raise ValueError(
-            "metrics must be a non-empty mapping of names to functions of a Solution (or "
-            "metrics.WithModel functions of a Solution and the model)."
+            "metrics must be a non-empty mapping of names to metrics (jaxbearing.metrics."
+            "AbstractMetric, e.g. jb.metrics.peak_ball_load.replace(bearing=1)) or functions of "
+            "a Solution."
         )
     items = []
-    for name, fn in metrics.items():
-        if not isinstance(name, str) or not callable(fn):
-            raise TypeError(f"metrics maps names (str) to functions of a Solution; got {name!r}: {fn!r}.")
+    for name, metric in metrics.items():
+        if not isinstance(name, str):
+            raise TypeError(f"metrics maps names (str) to metrics; got the name {name!r}.")
         if name in RESERVED or name in names:
             raise ValueError(
                 f"Metric name {name!r} collides with a parameter or a reserved name {RESERVED}."
             )
-        items.append((name, fn))
+        items.append((name, _metrics.as_metric(metric, f"metrics[{name!r}]")))
     return (*items, ("max_drift", _metrics.max_drift))  # every member's, whatever was asked
-
-
-def needs_samples(fn) -> bool:
-    """Whether metric ``fn`` reads the solution's output samples (``sol.ts``, ``sol.ball_loads``,
-    ...). Not when the function (inside a `metrics.WithModel` or a `functools.partial`) is one
-    of `metrics.STANDARD` or `metrics.SMOOTH`, `metrics.peak_time` or `metrics.peak_ball`, or
-    carries the attribute ``sample_free = True`` (`life.metric`'s does; mark your own metrics of
-    ``sol.segments`` or ``sol.fatigue``); every other metric does."""
-    if isinstance(fn, AbstractRecord):  # recorded by the solve (`metrics.Peak`, `metrics.Mean`)
-        return False
-    inner = _unwrapped(fn)
-    return not (getattr(inner, SAMPLE_FREE, False) is True or inner in _SEGMENT_METRICS)
-
-
-def needs_fatigue(fn) -> bool:
-    """Whether metric ``fn`` reads ``sol.fatigue`` (`life.metric` does: attribute
-    ``reads_fatigue = True``); members record it only then, unless ``fatigue`` is passed."""
-    return getattr(_unwrapped(fn), READS_FATIGUE, False) is True
-
-
-def _unwrapped(fn):
-    """The function inside a `metrics.WithModel` and a `functools.partial`."""
-    inner = fn.fn if isinstance(fn, _metrics.WithModel) else fn
-    return getattr(inner, "func", inner)
 
 
 def output_times(items, t0, t1, ts) -> np.ndarray:
     """``ts`` as given, else just what the metrics need: [t0, t1] when none reads the samples,
     else `DEFAULT_SAMPLES` equally spaced times."""
     if ts is None:
-        dense = any(needs_samples(fn) for _, fn in items)
+        dense = any(m.reads_samples for _, m in items)
         return np.linspace(t0, t1, DEFAULT_SAMPLES if dense else 2)
     return np.asarray(checked_ts(ts, t0, t1))
 

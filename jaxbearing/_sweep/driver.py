@@ -14,6 +14,7 @@ import jax
 import numpy as np
 
 from .. import _checks
+from ..metrics import AbstractMetric
 from ..multibody import Mechanism
 from . import arguments, dataset as _dataset, kernel, store
 from .progress import Progress
@@ -23,7 +24,7 @@ def sweep(
     model: Mechanism,
     params: Mapping[str, object],
     *,
-    metrics: Mapping[str, Callable] | None = None,
+    metrics: Mapping[str, AbstractMetric | Callable] | None = None,
     grid: bool = True,
     t1: float = 0.2,
     ts=None,
@@ -39,19 +40,21 @@ def sweep(
         model: a `Mechanism`; the swept parameters replace its values (`paths.replace`).
         params: dotted parameter path -> 1-D values, e.g. ``{"bearing.clearance": [2e-5, 4e-5],
             "impact.restitution": [0.7, 0.9]}``.
-        metrics: name -> function of a `Solution` returning a scalar, or a `metrics.WithModel`
-            (a function of the solution and the member's model, e.g. `life.metric`) (default
-            `jaxbearing.metrics.STANDARD`). Names must differ from the parameter paths and from
-            ``status``, ``failed``, ``point``.
+        metrics: name -> `metrics.AbstractMetric` (a built-in such as
+            ``metrics.peak_ball_load.replace(bearing=1)``, `metrics.Peak`, `metrics.Mean`,
+            `life.metric`; computed as ``metric.value(sol, model)`` with the member's own model)
+            or a function of a `Solution` returning a scalar, which reads the output samples
+            (`metrics.as_metric`) (default `jaxbearing.metrics.STANDARD`). Names must differ
+            from the parameter paths and from ``status``, ``failed``, ``point``.
         grid: True: every combination of the values (dimensions in the order of ``params``;
             an axis's values must differ).
             False: a list of points, the i-th value of every parameter together (all arrays of
             one length; dimension ``point``).
         t1: final time [s] of every simulation.
         ts: output times [s] the metrics see. Default: just what the metrics need: ``[t0, t1]``
-            when none reads the output samples (`metrics.STANDARD`, `metrics.SMOOTH`,
-            `life.metric` and functions marked ``sample_free = True`` come from the solve's
-            per-step records), else ``linspace(t0, t1, 2001)``.
+            when none reads the output samples (``reads_samples`` False: every metric of
+            jaxbearing's, `metrics.Peak`, `metrics.Mean`, `life.metric`), else
+            ``linspace(t0, t1, 2001)``.
         out: folder to write to and resume from (see the package doc), or None. One sweep
             writes a folder at a time (an advisory lock, ``fcntl.flock`` on its ``.sweep.lock``):
             while another process holds it, the same sweep waits, with a message on stderr, and
@@ -68,11 +71,13 @@ def sweep(
             ``stepsize_controller``, ``max_steps``, ``options``); ``throw``, ``progress`` and
             ``adjoint`` are the sweep's. Each member runs the same integrator core: as
             `simulate_one_loop` (one while loop, the faster in batches) where nothing reads
-            output samples, else as `simulate`; the metrics agree to the solver's accuracy. Without ``options.fatigue`` set, members record the life's integrals only
-            where a metric reads them. A window edge given as a number to a metric
-            (``functools.partial(peak_ball_load, t_min=0.09)``, `life.metric`'s ``t_min``)
-            that is not a stop of the solve is added to ``options.window_edges``, so that the
-            metric is exact (`arguments.with_metric_edges`).
+            output samples, else as `simulate`; the metrics agree to the solver's accuracy.
+            Without ``options.fatigue`` set, members record the life's integrals only where a
+            metric reads them (``reads_fatigue``). The metrics' records are declared, and their
+            window edges given as numbers (``peak_ball_load.replace(t_min=0.09)``,
+            `life.metric`'s ``t_min``: `metrics.AbstractMetric.edges`) that are not stops of
+            the solve are added to ``options.window_edges``, so that the metrics are exact
+            (`metrics.solve_options`).
 
     Returns:
         `xarray.Dataset` with one variable per metric, ``status`` (int32, a `RESULTS` code, 0 =

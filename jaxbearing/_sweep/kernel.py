@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import NamedSharding, PartitionSpec as P
 
-from .. import metrics as _metrics, paths
+from .. import paths
 from ..solution import RESULTS
 from ..solve import simulate, simulate_one_loop
 
@@ -110,8 +110,8 @@ def _member(model, row, ts, names, metric_items, t1, sim_kwargs, solve):
     code = jnp.asarray(sol.result._value, jnp.int32)
     ok = code == SUCCESS
     outs = []
-    for name, fn in metric_items:
-        value = jnp.asarray(fn(sol, m) if isinstance(fn, _metrics.WithModel) else fn(sol))
+    for name, metric in metric_items:
+        value = jnp.asarray(metric.value(sol, m))
         if value.shape != ():
             raise ValueError(f"Metric {name!r} must return a scalar; it returned shape {value.shape}.")
         outs.append(jnp.where(ok, value.astype(jnp.float64), jnp.nan))

@@ -24,15 +24,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _files, metrics as _metrics, paths, provenance
-from ..solution import AbstractRecord
+from .. import _files, paths, provenance
 from .arguments import resolved_settings
 from .dataset import flag_not_finite
 
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
 LOCK_FILE = ".sweep.lock"  # flock'ed by the process that writes the folder; holds its pid and host
-FORMAT_VERSION = 3  # 3: the max_drift variable, metrics of your own (metrics.Peak, Mean)
+FORMAT_VERSION = 4  # 3: max_drift, metrics.Peak and Mean; 4: metrics named by their labels
 SWEPT = "swept"  # the value of a swept parameter in the manifest's model_parameters
 NOT_RUN = -99  # status placeholder of a point not computed yet, never returned
 _NOT_COMPARED = ("versions", "chunk_points")
@@ -48,7 +47,7 @@ def manifest(model, request):
         "parameters": {n: a.tolist() for n, a in zip(names, request.axes)},
         "grid": request.grid,
         "shape": list(request.shape),
-        "metrics": {name: _metric_label(fn) for name, fn in request.metric_items},
+        "metrics": {name: _no_address(metric.label) for name, metric in request.metric_items},
         "t1": request.t1,
         "ts": np.asarray(request.ts).tolist(),
         "simulate": {
@@ -431,16 +430,3 @@ def _jsonable(value):
     if isinstance(value, (list, tuple)):
         return [_jsonable(v) for v in value]
     return _no_address(repr(value))
-
-
-def _metric_label(fn):
-    if isinstance(fn, AbstractRecord):
-        return f"{type(fn).__name__}({_metric_label(fn.fn)}, t_min={fn.t_min}, t_max={fn.t_max})"
-    if isinstance(fn, _metrics.WithModel):
-        return f"WithModel({_metric_label(fn.fn)})"
-    inner = getattr(fn, "func", fn)  # functools.partial
-    label = f"{getattr(inner, '__module__', '?')}.{getattr(inner, '__qualname__', type(inner).__name__)}"
-    if inner is not fn:
-        args = ", ".join([repr(a) for a in fn.args] + [f"{k}={v!r}" for k, v in fn.keywords.items()])
-        label = f"partial({label}, {args})"
-    return label

@@ -13,8 +13,9 @@ Two levels:
   `equivalent_load`, `rating_life`, `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
   `bearing_life`, `mean_speed_rpm`, `life_hours`, `reliability_factor` (ISO 281's a1).
 - **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`, `l10_hours`, and
-  `metric`, the L10 life as a metric of sweeps; `static_safety`, the ISO 76 static capacity
-  (C_0r, the peak equivalent static load, s_0 and the contact stress). The lives apply the
+  `metric`, the L10 life as a metric (`LifeMetric`) of sweeps and sensitivities;
+  `static_safety`, the ISO 76 static capacity (C_0r, the peak equivalent static load, s_0 and
+  the contact stress). The lives apply the
   same rules to the integrals the solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
   accepted step's interpolant, per interval between the solve's stops), not to the output
   samples, so a life does not depend on ``ts``; the window's edges must be stops of the solve.
@@ -77,6 +78,7 @@ from ._ratings import (
 )
 from ._solution import (
     LPLife,
+    LifeMetric,
     RatingLife,
     dynamic_rating,
     iso_life,
@@ -106,6 +108,7 @@ __all__ = [
     "F0_TABLE",
     "ISO_REDUCTION",
     "LPLife",
+    "LifeMetric",
     "PERMISSIBLE_BALL",
     "PERMISSIBLE_ROLLER",
     "RatingLife",

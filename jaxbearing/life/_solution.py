@@ -5,16 +5,25 @@ sweep metric."""
 
 from __future__ import annotations
 
-import functools
 import inspect
-from typing import Literal
+import numbers
+from typing import ClassVar, Literal
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .._checks import is_concrete
-from ..metrics import WithModel, element_index, bearing_index, intervals_inside, reached, window_start
+from ..metrics import (
+    AbstractMetric,
+    bearing_index,
+    element_index,
+    finite_numbers,
+    intervals_inside,
+    reached,
+    window_start,
+)
 from ..multibody.mechanism import Mechanism
 from ..params import BallBearing, RollerBearing
 from ..solution import (
@@ -371,11 +380,48 @@ def _life_function(method):
 _L10_UNITS = ("hours", "mrev")
 
 
+class LifeMetric(AbstractMetric):
+    """The L10 life as a metric (`metric` makes it): of a solution and its model (the bearing's
+    geometry and ring speeds, so a swept or differentiated clearance or stiffness enters the
+    life), from the solve's fatigue records (no output samples).
+
+    Fields: method ("iso" or "lp"), unit ("hours" or "mrev"), options: ((keyword, value), ...)
+    of `iso_life` / `lp_life`."""
+
+    method: str = eqx.field(static=True)
+    unit: str = eqx.field(static=True)
+    options: tuple = eqx.field(static=True)
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = True
+
+    def value(self, sol: Solution, model: Mechanism) -> jax.Array:
+        """L10 [h] or [millions of relative revolutions] of ``sol``, a solution of ``model``."""
+        result = _life_function(self.method)(sol, model, **dict(self.options))
+        return result.l10_hours if self.unit == "hours" else result.l10
+
+    def __call__(self, sol: Solution, model: Mechanism) -> jax.Array:
+        """`value` (called as the life functions are, on a solution and its model)."""
+        return self.value(sol, model)
+
+    def edges(self) -> tuple[float, ...]:
+        """``t_min`` and ``t_max`` [s] where given as numbers."""
+        options = dict(self.options)
+        return finite_numbers(options.get("t_min"), options.get("t_max"))
+
+    @property
+    def label(self) -> str:
+        """The call of `metric` that makes it, e.g. ``life.metric('lp', groove_inner=0.5219)``."""
+        unit = [] if self.unit == "hours" else [f"unit={self.unit!r}"]
+        options = [f"{k}={v!r}" for k, v in self.options]
+        return f"life.metric({', '.join([repr(self.method), *unit, *options])})"
+
+
 def metric(
     method: Literal["iso", "lp"] = "iso", unit: Literal["hours", "mrev"] = "hours", **kwargs
-) -> WithModel:
-    """The L10 life as a metric of `jaxbearing.sweep` (a `metrics.WithModel`: the sweep passes
-    each member's solution and model, so a swept clearance or stiffness enters the life):
+) -> LifeMetric:
+    """The L10 life as a metric of `jaxbearing.sweep`, `jaxbearing.sensitivity` and
+    `metrics.converged` (a `LifeMetric`: each member's own model enters, so a swept clearance
+    or stiffness enters the life):
 
         metrics = {"l10_hours": life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
 
@@ -385,11 +431,14 @@ def metric(
         unit: ``"hours"`` L10h [h] at the mean relative speed, or ``"mrev"`` L10 [millions of
             relative revolutions].
         **kwargs: keyword arguments of that function (t_min, t_max; groove_inner,
-            groove_outer, rotating, ... for ``"lp"``), checked here.
+            groove_outer, rotating, ... for ``"lp"``), checked here; numbers and strings (the
+            metric is static, compared by value). A ``t_min`` or ``t_max`` given as a number
+            becomes a stop of the solves that compute the metric.
 
-    The value equals ``iso_life(sol, model, **kwargs).l10_hours`` (or ``.l10``; ``lp_life``
-    likewise) on a single run. It costs little beside the simulation (Lundberg–Palmgren follows
-    ``points_per_ball`` points of each ring per ball; benchmarks/results.json has the figures).
+    ``metric(...).value(sol, model)`` equals ``iso_life(sol, model, **kwargs).l10_hours`` (or
+    ``.l10``; ``lp_life`` likewise) on a single run. It costs little beside the simulation
+    (Lundberg–Palmgren follows ``points_per_ball`` points of each ring per ball;
+    benchmarks/results.json has the figures).
     """
     function = _life_function(method)
     if unit not in _L10_UNITS:
@@ -398,13 +447,15 @@ def metric(
         inspect.signature(function).bind(None, None, **kwargs)
     except TypeError as err:
         raise TypeError(f"life.metric({method!r}): {err}") from None
-    return WithModel(functools.partial(_l10, method=method, unit=unit, **kwargs))
+    for name, value in kwargs.items():
+        if not (value is None or isinstance(value, (str, numbers.Real))):
+            raise TypeError(
+                f"life.metric: {name} must be a number, a string or None; got "
+                f"{type(value).__name__}."
+            )
+    return LifeMetric(method, unit, tuple((k, _plain(v)) for k, v in kwargs.items()))
 
 
-def _l10(sol: Solution, model: Mechanism, *, method, unit, **kwargs) -> jax.Array:
-    result = _life_function(method)(sol, model, **kwargs)
-    return result.l10_hours if unit == "hours" else result.l10
-
-
-_l10.sample_free = True  # reads sol.fatigue, not the output samples (`_sweep.needs_samples`)
-_l10.reads_fatigue = True  # sweeps record sol.fatigue for it (`_sweep.arguments.needs_fatigue`)
+def _plain(value):
+    """A NumPy scalar as a Python one (the metric's fields are compared and hashed)."""
+    return value.item() if isinstance(value, np.generic) else value
