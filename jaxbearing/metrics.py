@@ -766,11 +766,7 @@ class _Own(AbstractRecord, AbstractMetric):
         )
 
     def value(self, sol, model) -> jax.Array:
-        """The value the solve recorded in ``sol``, a solution of ``model`` (as calling it).
-        The solve calls it as ``value(model, x)``, x a `solution.Instant`: then ``fn(model, x)``
-        (`solution.AbstractRecord.value`)."""
-        if not isinstance(sol, Solution):  # the solve's call (`solution.record_values`)
-            return AbstractRecord.value(self, sol, model)
+        """The value the solve recorded in ``sol``, a solution of ``model`` (as calling it)."""
         return self(sol)
 
     def records(self) -> tuple:

@@ -92,7 +92,7 @@ def _record_values(model, records, reduction: str, t, q, qd, f) -> jax.Array:
     if not chosen:
         return jnp.zeros((0,), q.dtype)
     x = instant(t, q, qd, f)
-    return jnp.stack([r.value(model, x) for _, r in chosen])
+    return jnp.stack([r.at(model, x) for _, r in chosen])
 
 
 def _squared(b):

@@ -245,8 +245,9 @@ class AbstractRecord(eqx.Module):
     t_max: float | None = eqx.field(static=True)
     reduction: eqx.AbstractClassVar[str]
 
-    def value(self, model, x: Instant) -> jax.Array:
-        """``fn(model, x)``, a float64 scalar; a ValueError where it is not a scalar."""
+    def at(self, model, x: Instant) -> jax.Array:
+        """``fn(model, x)`` at one instant, a float64 scalar; a ValueError where it is not a
+        scalar."""
         v = jnp.asarray(self.fn(model, x), jnp.float64)
         if v.shape != ():
             raise ValueError(
