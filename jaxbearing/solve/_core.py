@@ -563,3 +563,32 @@ def _row(x, here):
     """The row of ``x`` (rows, ...) where the one-hot ``here`` is true: a sum of selects, which
     a batch evaluates elementwise (a vmapped index would be a gather)."""
     return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
+
+
+@jax.custom_jvp
+def _identity(tree):
+    return tree
+
+
+def _identity_jvp(primals, tangents):
+    (tree,), (tangents,) = primals, tangents
+    zero = lambda t: isinstance(t, jax.custom_derivatives.SymbolicZero)  # noqa: E731
+    leaves = jax.tree_util.tree_leaves(tangents, is_leaf=zero)
+    anchor = jnp.sum(next(t for t in leaves if not zero(t)))
+    # a zero selected from a tangent: JAX takes a zero computed from constants for none
+    fill = lambda t, x: jnp.where(False, anchor, jnp.zeros_like(x)) if zero(t) else t  # noqa: E731
+    return tree, jax.tree_util.tree_map(fill, tangents, tree, is_leaf=zero)
+
+
+_identity.defjvp(_identity_jvp, symbolic_zeros=True)
+
+
+def perturbed(tree):
+    """``tree``; under differentiation, with a tangent on every floating leaf (zero where it
+    had none). The solve's loops find which carried values carry tangents by a fixed point, one
+    trace of their whole body per pass: JAX's scan and while loops by JVPs of the body,
+    equinox's checkpointed loop by linearising it, in the forward pass and again in the
+    backward one. From a carry whose floating values all carry tangents each converges in one
+    pass (docs/performance.md gives the primitives that tracing `jax.grad` binds)."""
+    dynamic, static = eqx.partition(tree, eqx.is_inexact_array)
+    return eqx.combine(_identity(dynamic), static)

@@ -33,7 +33,7 @@ from ..solution import (
     RESULTS, Solution, _forces, assemble, first_rows, raise_on_failure, warn_if_drifting,
 )  # fmt: skip
 from ._progress import label_key
-from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
+from ._core import ROOT_STEPS, Setup, _where_rows, initial_state, perturbed
 from ._options import SolveOptions, record_edges
 from ._recording import _accelerations
 from ._segments import (
@@ -306,7 +306,7 @@ def _simulate(
     )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
     final, used = jax.lax.scan(
-        functools.partial(slot, driver), initial_carry(driver, state), jnp.arange(max_segments)
+        functools.partial(slot, driver), perturbed(initial_carry(driver, state)), jnp.arange(max_segments)
     )
     x = final.state
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
