@@ -258,8 +258,10 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
     solver_state = s.solver.init(s.term, t0, t_next, y0, args)
-    # zeros shaped as the solver's dense info, y0 in its state-shaped leaves
-    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t_next, y0, args, solver_state, False)
+    # zeros shaped as the solver's dense info, y0 in its state-shaped leaves (made_jump an array:
+    # a Python bool would be a constant there, which eager operations compile programs for)
+    made_jump = jnp.asarray(False)
+    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t_next, y0, args, solver_state, made_jump)
     dense = jax.tree_util.tree_map(
         lambda x: y0 if x.shape == y0.shape else jnp.zeros(x.shape, x.dtype), out[2]
     )
@@ -269,7 +271,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         t=t0,
         y=y0,
         solver_state=solver_state,
-        made_jump=jnp.asarray(False),
+        made_jump=made_jump,
         h=t_next - t0,
         control=control,
         cell=jnp.asarray(0),
