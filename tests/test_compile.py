@@ -273,6 +273,59 @@ def test_building_and_checking_a_model_compiles_only_its_stiffness_laws():
     assert compiled <= {"_bearing_stiffness", "_impact_stiffness"}, names
 
 
+_NOTEBOOK = """
+import json
+import jax
+jax.config.update("jax_enable_x64", True)
+import numpy as np
+import jaxbearing as jb
+programs, steps = [], {}
+def count(event, duration, **kwargs):
+    if event == "/jax/core/compile/backend_compile_duration":  # one program compiled
+        programs.append(kwargs.get("fun_name"))
+jax.monitoring.register_event_duration_secs_listener(count)
+def step(label, f):
+    start = len(programs)
+    value = f()
+    steps[label] = programs[start:]
+    return value
+step("xu2014", jb.cases.xu2014)
+step("four_bar", jb.cases.four_bar)
+rotor = step("rotor", lambda: jb.cases.rotor(jb.cases.skf98205()))
+ts = np.linspace(0.0, 0.002, 5)
+for label in ("simulate", "simulate again"):
+    step(label, lambda: jb.simulate(rotor, 0.002, ts).q.block_until_ready())
+print(json.dumps(steps))
+"""
+# the one-operation programs a first `simulate` still compiles, outside jaxbearing's solve: diffrax's
+# Runge-Kutta step compares its constant result code while the solve's first state is traced
+# (`_core.initial_state`'s `eqx.filter_eval_shape` of the step), and `solution.raise_on_failure`
+# compares the run's result code
+_FIRST_RUN_EAGER = {"convert_element_type", "bitwise_or", "not_equal", "equal"}
+
+
+def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
+    """The path a notebook walks, in a fresh process: building the paper's case compiles its two
+    stiffness laws, the four-bar its assembly (one program: the laws are compiled already), the
+    rotor nothing, none of them an eager operation on a known value (NumPy checks and
+    conversions); the rotor's first `simulate` compiles the solve, the program that cuts its
+    outputs to the times asked for, and at most the 4 one-operation programs of
+    `_FIRST_RUN_EAGER` (none of `simulate`'s argument checks); the same call again compiles
+    nothing."""
+    env = {**os.environ, "JAXBEARING_NO_COMPILATION_CACHE": "1"}
+    done = subprocess.run([sys.executable, "-c", _NOTEBOOK], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
+    steps = json.loads(done.stdout.strip().splitlines()[-1])
+    names = {k: [n.removeprefix("jit(").removesuffix(")") for n in v] for k, v in steps.items()}
+    assert sorted(names["xu2014"]) == ["_bearing_stiffness", "_impact_stiffness"], steps
+    assert names["four_bar"] == ["_assembled"], steps
+    assert names["rotor"] == [], steps
+    first = set(names["simulate"])
+    assert len(names["simulate"]) == len(first) <= 6, steps  # each program once
+    assert {"_simulate", "first_rows"} <= first <= {"_simulate", "first_rows"} | _FIRST_RUN_EAGER, steps
+    assert names["simulate again"] == [], steps
+
+
 def test_no_private_apis_or_compiler_tricks_in_the_package():
     """Plain, public JAX: no `jax._src`, no private diffrax names, no ctypes, no platform-dependent
     branches or library calls that steer XLA's passes."""

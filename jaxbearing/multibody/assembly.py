@@ -29,7 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import is_concrete
+from .._checks import is_concrete, to_float64
 from .forces import BearingJoint
 
 TOLERANCE = 1e-12  # [m or rad] residual of every assembly constraint at q0
@@ -43,15 +43,15 @@ def assemble(model, q_guess=None, qd_guess=None, t0=0.0):
     bearing centred, nearest ``q_guess`` and ``qd_guess`` (defaults: the model's own ``q0``,
     ``qd0``). See the module docstring; `Mechanism.assemble` calls it."""
     n = model.n_coordinates
-    q_guess = model.q0 if q_guess is None else jnp.asarray(q_guess, jnp.float64)
-    qd_guess = model.qd0 if qd_guess is None else jnp.asarray(qd_guess, jnp.float64)
+    q_guess = model.q0 if q_guess is None else to_float64(q_guess)
+    qd_guess = model.qd0 if qd_guess is None else to_float64(qd_guess)
     for name, x in (("q_guess", q_guess), ("qd_guess", qd_guess)):
         if x.shape != (n,):
             raise ValueError(f"{name} must have shape ({n},) (x, y, theta per body); got {x.shape}.")
     if not model.joints and not model.bearings:
         return _with_state(model, q_guess, qd_guess)
     traced = not is_concrete(*jax.tree_util.tree_leaves((model, q_guess, qd_guess, t0)))
-    found = _assembled(model, q_guess, qd_guess, jnp.asarray(t0, jnp.float64), traced)
+    found = _assembled(model, q_guess, qd_guess, to_float64(t0), traced)
     _check_closed(model, found.start_residual, "Gauss–Newton steps")
     _check_rank(model, found.start_jacobian)
     _check_closed(model, found.residual, "Newton steps on the projection")

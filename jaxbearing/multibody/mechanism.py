@@ -90,7 +90,7 @@ class Mechanism(eqx.Module):
         self.gravity = gravity
         self.q0 = _checks.as_float(q0, "q0", "m, rad")
         if qd0 is None:
-            qd0 = jnp.zeros_like(self.q0)
+            qd0 = np.zeros(self.q0.shape)  # NumPy: jnp.zeros_like compiles a program
         self.qd0 = _checks.as_float(qd0, "qd0", "m/s, rad/s")
         self.baumgarte_alpha = _checks.as_float(baumgarte_alpha, "baumgarte_alpha", "1/s")
         self.baumgarte_beta = _checks.as_float(baumgarte_beta, "baumgarte_beta", "1/s")

@@ -257,8 +257,10 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
     solver_state = s.solver.init(s.term, t0, t_next, y0, args)
-    # zeros shaped as the solver's dense info, y0 in its state-shaped leaves
-    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t_next, y0, args, solver_state, False)
+    # zeros shaped as the solver's dense info, y0 in its state-shaped leaves (made_jump an array:
+    # a Python bool would be a constant there, which eager operations compile programs for)
+    made_jump = jnp.asarray(False)
+    out = eqx.filter_eval_shape(s.solver.step, s.term, t0, t_next, y0, args, solver_state, made_jump)
     dense = jax.tree_util.tree_map(
         lambda x: y0 if x.shape == y0.shape else jnp.zeros(x.shape, x.dtype), out[2]
     )
@@ -268,7 +270,7 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         t=t0,
         y=y0,
         solver_state=solver_state,
-        made_jump=jnp.asarray(False),
+        made_jump=made_jump,
         h=t_next - t0,
         control=control,
         cell=jnp.asarray(0),
@@ -562,3 +564,32 @@ def _row(x, here):
     """The row of ``x`` (rows, ...) where the one-hot ``here`` is true: a sum of selects, which
     a batch evaluates elementwise (a vmapped index would be a gather)."""
     return jnp.sum(_where_rows(here, x, jnp.zeros((), x.dtype)), axis=0, dtype=x.dtype)
+
+
+@jax.custom_jvp
+def _identity(tree):
+    return tree
+
+
+def _identity_jvp(primals, tangents):
+    (tree,), (tangents,) = primals, tangents
+    zero = lambda t: isinstance(t, jax.custom_derivatives.SymbolicZero)  # noqa: E731
+    leaves = jax.tree_util.tree_leaves(tangents, is_leaf=zero)
+    anchor = jnp.sum(next(t for t in leaves if not zero(t)))
+    # a zero selected from a tangent: JAX takes a zero computed from constants for none
+    fill = lambda t, x: jnp.where(False, anchor, jnp.zeros_like(x)) if zero(t) else t  # noqa: E731
+    return tree, jax.tree_util.tree_map(fill, tangents, tree, is_leaf=zero)
+
+
+_identity.defjvp(_identity_jvp, symbolic_zeros=True)
+
+
+def perturbed(tree):
+    """``tree``; under differentiation, with a tangent on every floating leaf (zero where it
+    had none). The solve's loops find which carried values carry tangents by a fixed point, one
+    trace of their whole body per pass: JAX's scan and while loops by JVPs of the body,
+    equinox's checkpointed loop by linearising it, in the forward pass and again in the
+    backward one. From a carry whose floating values all carry tangents each converges in one
+    pass (docs/performance.md gives the primitives that tracing `jax.grad` binds)."""
+    dynamic, static = eqx.partition(tree, eqx.is_inexact_array)
+    return eqx.combine(_identity(dynamic), static)

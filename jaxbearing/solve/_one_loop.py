@@ -23,7 +23,7 @@ import jax.numpy as jnp
 from .. import _checks
 from ..multibody.mechanism import Mechanism
 from ..solution import raise_on_failure, warn_if_drifting
-from ._core import ROOT_STEPS, advance
+from ._core import ROOT_STEPS, advance, perturbed
 from ._options import SolveOptions, record_edges
 from ._simulate import core_start, solution, solve_arguments
 
@@ -72,7 +72,7 @@ def _one_loop(model, t0, t1, dt0, solver, controller, max_steps, extra_stops, fa
         model, t0, t1, dt0, None, solver, controller, max_steps, extra_stops, fatigue, records, max_onsets,
         "lax",
     )
-    final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], state)
+    final = jax.lax.while_loop(lambda x: ~x.done, lambda x: advance(setup, x)[0], perturbed(state))
     final = eqxi.nondifferentiable_backward(
         final, msg="simulate_one_loop supports forward mode (jax.jvp, jax.jacfwd) only: use simulate for reverse mode."
     )

@@ -6,12 +6,11 @@ the output times each segment passes, evaluated from the steps it recorded.
 A segment is only a pause: the core's state carries everything on (the solver's and the
 controller's state, an event being located), so a run takes the same steps however it is cut.
 Under `jax.vmap` every member runs its own steps in each segment; once every member is done the
-remaining slots branch past the loop (`slot`).
+remaining slots are segments of no iterations (`slot`).
 """
 
 from __future__ import annotations
 
-import functools
 from typing import NamedTuple
 
 import diffrax
@@ -19,7 +18,7 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ._core import Row, Setup, State, _interpolation, _where_rows, advance
+from ._core import Row, Setup, State, _interpolation, _where_rows, advance, perturbed
 from ._progress import report
 
 
@@ -113,7 +112,7 @@ def segment(d: Driver, c: Carry):
     _, x, rows, n = eqxi.while_loop(
         more,
         body,
-        (jnp.asarray(0), x0, _empty_rows(d, x0), jnp.asarray(0)),
+        (jnp.asarray(0), *perturbed((x0, _empty_rows(d, x0))), jnp.asarray(0)),
         max_steps=d.segment_steps,
         buffers=lambda loop: loop[2],
         kind=d.kind,
@@ -125,12 +124,11 @@ def segment(d: Driver, c: Carry):
 
 
 def slot(d: Driver, c: Carry, index):
-    """One slot of the segment loop: `segment`, or, once the run (under `jax.vmap`: every
-    member of the batch) is done, nothing; and whether the slot ran."""
+    """One slot of the segment loop: `segment` (once the run is done, under `jax.vmap` every
+    member, one of no iterations), and whether the slot ran. Not a `lax.cond` around the
+    segment: reverse mode traced the segment's backward pass once per branch."""
     del index
-    # unbatched under vmap, so that the conditional stays a branch
-    ran = eqxi.unvmap_any(~c.state.done)
-    return jax.lax.cond(ran, functools.partial(segment, d), lambda c: c, c), ~c.state.done
+    return segment(d, c), ~c.state.done
 
 
 def _rows_at(d: Driver, rows: Row, n, times, x0: State):

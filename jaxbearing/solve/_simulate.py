@@ -34,7 +34,7 @@ from ..multibody.mechanism import Mechanism
 from ..recorder import Recorder
 from ..solution import RESULTS, Solution, first_rows, raise_on_failure, warn_if_drifting
 from ._progress import label_key
-from ._core import ROOT_STEPS, Setup, _where_rows, initial_state
+from ._core import ROOT_STEPS, Setup, _where_rows, initial_state, perturbed
 from ._options import SolveOptions, record_edges
 from ._segments import (
     Driver,
@@ -187,7 +187,9 @@ def solve_arguments(caller: str, model, t1, solver, controller, max_steps, optio
     )
     solver = with_root_tolerances(solver, controller)
     dt0 = _checks.checked_dt0(options.dt0, controller, t0, t1)
-    dt0 = (t1 - t0) * INITIAL_STEP if dt0 is None else dt0
+    if dt0 is None:  # NumPy where t0 and t1 are known: an eager operation compiles a program
+        length = np.asarray(t1) - np.asarray(t0) if is_concrete(t0, t1) else t1 - t0
+        dt0 = _checks.to_float64(length * INITIAL_STEP)
     return SolveArguments(model, options, span, t0, t1, dt0, solver, controller, max_onsets)
 
 
@@ -213,7 +215,8 @@ def _bucketed(ts):
     n = ts.shape[0]
     if n >= OUTPUT_BUCKET or not is_concrete(ts):
         return ts
-    return jnp.concatenate([ts, jnp.broadcast_to(ts[-1], (OUTPUT_BUCKET - n,))])
+    t = np.asarray(ts)  # NumPy: eager operations on ``ts`` would compile a program each
+    return jax.device_put(np.concatenate([t, np.full(OUTPUT_BUCKET - n, t[-1])]))
 
 
 def _span(t0, t1) -> float:
@@ -313,7 +316,7 @@ def _simulate(
     )
     driver = Driver(setup, padded_times(ts, block), t0, segment_steps, block, progress, kind)
     final, used = jax.lax.scan(
-        functools.partial(slot, driver), initial_carry(driver, state), jnp.arange(max_segments)
+        functools.partial(slot, driver), perturbed(initial_carry(driver, state)), jnp.arange(max_segments)
     )
     x = final.state
     result = RESULTS.where(x.done, x.result, RESULTS.max_segments_reached)
