@@ -342,7 +342,11 @@ class Recorder(AbstractRecorder):
             "num_events": x.events,
         }
         targets = tuple(3 * c.body_k for c in model.contacts)
-        sol = Solution(ts, samples, records, stats, result, x.t, stops[-1], model.window_start, targets)
+        # the time reached has no derivative (t1, or where a run failed): without a tangent it
+        # stays a concrete value under jax.grad, and a failure raises in Python
+        # (`solution.raise_on_failure`) instead of through a host callback
+        t_final = jax.lax.stop_gradient(x.t)
+        sol = Solution(ts, samples, records, stats, result, t_final, stops[-1], model.window_start, targets)
         # the records of your own: the columns after the built-in ones, in declared order
         first = {"peak": self.n_segment_peaks, "mean": 3 * len(model.bearings) + len(model.contacts)}
         values = {}
