@@ -33,6 +33,7 @@ from .solution import (
     Samples,
     SegmentStats,
     Solution,
+    integral_column,
     peak_column,
 )
 from .solve._recording import AbstractRecorder
@@ -130,14 +131,18 @@ class Recorder(AbstractRecorder):
     @property
     def n_segment_peaks(self) -> int:
         """The built-in peak columns, 2 B + K + n_coordinates (the peak records' follow)."""
-        m = self.model
-        return 2 * len(m.bearings) + len(m.contacts) + m.n_coordinates
+        return self._column("displacement", self.model.n_coordinates)
 
     @property
     def n_segment_integrals(self) -> int:
         """Columns of `SegmentStats.integrals`: 3 B + K + the mean records + 1."""
+        return self._first_mean + len(of_kind(self.records, "mean")) + 1
+
+    @property
+    def _first_mean(self) -> int:
+        """The column of the first mean record's integral, after the contacts' (3 B + K)."""
         m = self.model
-        return 3 * len(m.bearings) + len(m.contacts) + len(of_kind(self.records, "mean")) + 1
+        return integral_column("contact_force_power", len(m.contacts), len(m.bearings))
 
     @property
     def n_peaks(self) -> int:
@@ -303,24 +308,16 @@ class Recorder(AbstractRecorder):
             reached(peaks.times, jnp.nan),
             tuple(reached(loads, 0.0) for loads in peaks.carried),
         )
-        sizes = fatigue_sizes(model, self.fatigue)
+        sizes = fatigue_sizes(model, self.fatigue)  # empty where not recorded: None each
         ends = [self.n_segment_integrals + sum(sizes[:i]) for i in range(len(sizes) + 1)]
-        fatigue = []
-        for b in range(len(model.bearings)):
-            stats = integrals[:, ends[b] : ends[b + 1]] if sizes else None
-            m = (sizes[b] - FATIGUE_SCALARS) // 2 if sizes else 0
-            fatigue.append(
-                None
-                if stats is None
-                else FatigueStats(
-                    t_start,
-                    t_end,
-                    stats[:, :FATIGUE_SCALARS],
-                    stats[:, FATIGUE_SCALARS : FATIGUE_SCALARS + m],
-                    stats[:, FATIGUE_SCALARS + m :],
-                    valid,
-                )
-            )
+        fatigue = [None] * len(model.bearings)
+        for b, size in enumerate(sizes):
+            stats = integrals[:, ends[b] : ends[b + 1]]
+            m = FATIGUE_SCALARS + (size - FATIGUE_SCALARS) // 2  # the outer ring's first column
+            fatigue[b] = FatigueStats(
+                t_start, t_end, stats[:, :FATIGUE_SCALARS], stats[:, FATIGUE_SCALARS:m],
+                stats[:, m:], valid,
+            )  # fmt: skip
         o = outputs
         samples = Samples(
             q=o["q"],
@@ -348,7 +345,7 @@ class Recorder(AbstractRecorder):
         t_final = jax.lax.stop_gradient(x.t)
         sol = Solution(ts, samples, records, stats, result, t_final, stops[-1], model.window_start, targets)
         # the records of your own: the columns after the built-in ones, in declared order
-        first = {"peak": self.n_segment_peaks, "mean": 3 * len(model.bearings) + len(model.contacts)}
+        first = {"peak": self.n_segment_peaks, "mean": self._first_mean}
         values = {}
         for reduction, start in first.items():
             for u, (name, record) in enumerate(of_kind(self.records, reduction)):

@@ -469,8 +469,8 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         ),
         lambda: (no_peaks(s.recorder), jnp.zeros_like(integrals)),
     )
+    # an iteration that recorded no step adds an empty span (peaks -inf, integrals 0): no change
     rows = RecordState(add_peaks(s.recorder.carried_columns, peaks, step_peaks), integrals + step_integrals)
-    rows = _select(row.recorded, rows, RecordState(peaks, integrals))
     into = lambda a, r: _where_rows(here, jnp.broadcast_to(r, a.shape), a)  # noqa: E731
     onset = o.located & o.onset[3]
     overflow = onset & (x.n_onsets >= x.onsets[0].shape[0])

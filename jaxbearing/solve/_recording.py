@@ -44,7 +44,8 @@ class RecordState(NamedTuple):
 
 
 class AbstractRecorder(eqx.Module):
-    """What the solve records at one state y = [q, qd] with the switches ``args`` in force.
+    """What the solve records at one state y = [q, qd] with the ``switches`` in force (the
+    right-hand side's: each contact's approach speed, each switched ball's engagement).
 
     ``observe`` computes what a state holds (any pytree: the forces); ``peaks`` and
     ``integrands`` read it. Peak columns are evaluated between a step's points in groups
@@ -86,9 +87,8 @@ class AbstractRecorder(eqx.Module):
     @abc.abstractmethod
     def contact_columns(self) -> tuple: ...
 
-
     @abc.abstractmethod
-    def observe(self, t, y, args):
+    def observe(self, t, y, switches):
         """What the state (t, y) holds, a pytree read by `peaks` and `integrands`."""
 
     @abc.abstractmethod
@@ -100,7 +100,7 @@ class AbstractRecorder(eqx.Module):
         """The integrands (I,) at (t, y) with ``observed`` there."""
 
     @abc.abstractmethod
-    def peaks_at(self, group: int, interpolation, times, args) -> tuple:
+    def peaks_at(self, group: int, interpolation, times, switches) -> tuple:
         """The columns of vertex group ``group``, each at its own time of ``times`` [s] along
         ``interpolation`` (y(t)), and the carried arrays whose columns lie in the group, each
         at its column's time."""
@@ -124,7 +124,7 @@ def point_peaks(recorder: AbstractRecorder, t, y, observed) -> Peaks:
     return Peaks(values, jnp.full_like(values, t), tuple(carried))
 
 
-def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, args, running: Peaks):
+def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, switches, running: Peaks):
     """(`Peaks`, integrals (I,)) over [t_a, t_b] of one step's interpolant: peaks at t_b and at
     the 3 Gauss–Legendre points, and, where the step may rise above ``running`` (`Peaks` so
     far), at each column's `_vertices`; the Gauss–Legendre quadrature of the integrands.
@@ -133,7 +133,7 @@ def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, args, runnin
     select."""
     times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
     ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
-    observed = jax.vmap(lambda t, y: recorder.observe(t, y, args))(times, ys)
+    observed = jax.vmap(lambda t, y: recorder.observe(t, y, switches))(times, ys)
     points = jax.vmap(lambda *a: point_peaks(recorder, *a))(times, ys, observed)
     peaks = _largest_of(recorder.carried_columns, points)
     # between the points: the interpolant at the vertex of a parabola through them, for the
@@ -151,7 +151,7 @@ def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, args, runnin
         shapes = _carried_in(recorder, start, stop)
         value, held = jax.lax.cond(
             eqxi.unvmap_any(jnp.any(may_rise[start:stop])),
-            lambda g=g, start=start, stop=stop: _group(recorder, g, interpolation, at[start:stop], args),
+            lambda g=g, start=start, stop=stop: _group(recorder, g, interpolation, at[start:stop], switches),
             lambda start=start, stop=stop, shapes=shapes: (
                 jnp.full(stop - start, -jnp.inf, at.dtype),
                 tuple(jnp.zeros(s, at.dtype) for s in shapes),
@@ -173,9 +173,9 @@ def _carried_in(recorder: AbstractRecorder, start: int, stop: int) -> tuple:
     )
 
 
-def _group(recorder: AbstractRecorder, g: int, interpolation, times, args) -> tuple:
+def _group(recorder: AbstractRecorder, g: int, interpolation, times, switches) -> tuple:
     """`AbstractRecorder.peaks_at` of group ``g``, as (values, tuple of carried arrays)."""
-    values, carried = recorder.peaks_at(g, interpolation, times, args)
+    values, carried = recorder.peaks_at(g, interpolation, times, switches)
     return values, tuple(carried)
 
 
