@@ -306,7 +306,8 @@ _FIRST_RUN_EAGER = {"convert_element_type", "bitwise_or", "not_equal", "equal"}
 
 def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     """The path a notebook walks, in a fresh process: building the paper's case compiles its two
-    stiffness laws, the four-bar its assembly (one program: the laws are compiled already), the
+    stiffness laws, the four-bar its assembly's constraints and Jacobians (one small program without
+    loops: the laws are compiled already, the assembly's steps are NumPy), the
     rotor nothing, none of them an eager operation on a known value (NumPy checks and
     conversions); the rotor's first `simulate` compiles the solve, the program that cuts its
     outputs to the times asked for, and at most the 4 one-operation programs of
@@ -318,7 +319,7 @@ def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     steps = json.loads(done.stdout.strip().splitlines()[-1])
     names = {k: [n.removeprefix("jit(").removesuffix(")") for n in v] for k, v in steps.items()}
     assert sorted(names["xu2014"]) == ["_bearing_stiffness", "_impact_stiffness"], steps
-    assert names["four_bar"] == ["_assembled"], steps
+    assert names["four_bar"] == ["linearized"], steps
     assert names["rotor"] == [], steps
     first = set(names["simulate"])
     assert len(names["simulate"]) == len(first) <= 6, steps  # each program once

@@ -4,8 +4,9 @@ The assembly constraints are the joints' Phi(q, t0) = 0 (drivers held at their a
 and, for every `BearingJoint`, its race centres coinciding (the bearing centred, as in the
 paper's case). Positions: q0 is the point of that constraint manifold nearest the guess,
 min ||q - q_guess||^2 subject to Phi(q, t0) = 0, found by Gauss–Newton steps onto the manifold
-(minimum-norm corrections, robust from a rough guess) and then Newton's method on the
-projection's optimality conditions,
+(minimum-norm corrections, robust from a rough guess) and then Gauss–Newton steps (the
+constraints' curvature left out: linear convergence to the same point) on the projection's
+optimality conditions,
 
     q - q_guess + Phi_q^T lambda = 0,    Phi(q, t0) = 0,
 
@@ -14,8 +15,11 @@ theorem: where the model or the guess is traced, a last Newton step from the sol
 constant) carries dq0/dp = -K^-1 dF/dp (K the system's Jacobian), so that a parameter that moves
 a joint point moves q0 accordingly. Velocities: qd0 is the velocity guess projected onto
 Phi_q qd + Phi_t = 0 (minimum-norm correction), which is linear and differentiable as it stands.
-All of it is one compiled program (`_assembled`: two small loops), which the checks read on the
-host: assembling a small mechanism compiles once instead of running many one-operation programs.
+A concrete model is assembled on the host: NumPy's linear algebra and loops around one small
+compiled function (the constraints and their Jacobians, no loops), so that assembling a small
+mechanism compiles in a fraction of a second instead of compiling the loops; a traced one (under
+`jax.jit`, `jax.grad`, `jax.vmap`) runs the same steps (`_search`) in `jax.numpy` and
+`jax.lax.while_loop` inside the caller's program.
 
 A constraint set whose Jacobian is rank-deficient at the assembly (redundant joints, e.g. an
 ideal `Revolute` beside a bearing at its points) is refused, naming the joints involved; so is
@@ -50,12 +54,17 @@ def assemble(model, q_guess=None, qd_guess=None, t0=0.0):
             raise ValueError(f"{name} must have shape ({n},) (x, y, theta per body); got {x.shape}.")
     if not model.joints and not model.bearings:
         return _with_state(model, q_guess, qd_guess)
-    traced = not is_concrete(*jax.tree_util.tree_leaves((model, q_guess, qd_guess, t0)))
-    found = _assembled(model, q_guess, qd_guess, to_float64(t0), traced)
-    _check_closed(model, found.start_residual, "Gauss–Newton steps")
-    _check_rank(model, found.start_jacobian)
-    _check_closed(model, found.residual, "Newton steps on the projection")
-    return _with_state(model, found.q, found.qd)
+    if not is_concrete(*jax.tree_util.tree_leaves((model, q_guess, qd_guess, t0))):
+        return _with_state(model, *_traced(model, q_guess, qd_guess, to_float64(t0)))
+    linearize = _on_host(model, t0)
+    q_guess, qd_guess = np.asarray(q_guess), np.asarray(qd_guess)
+    start, residual, jac = _onto_manifold(linearize, q_guess, np, _host_while)
+    _check_closed(model, residual, "Gauss–Newton steps")
+    _check_rank(model, jac)
+    y, (residual, jac, rate) = _projection(linearize, q_guess, start, jac, np, _host_while)
+    _check_closed(model, residual, "Newton steps on the projection")
+    q, qd = y[: q_guess.size], _velocities(np, jac, rate, qd_guess)
+    return _with_state(model, to_float64(q), to_float64(qd))
 
 
 def _with_state(model, q, qd):
@@ -88,89 +97,105 @@ def labels(model) -> list[str]:
     return out
 
 
-class _Assembly(eqx.Module):
-    """What `_assembled` finds: the start on the manifold with its residual and Phi_q (for the
-    checks), the assembled q with its residual, and qd."""
+def _on_host(model, t0):
+    """q -> `linearized` at ``t0`` in NumPy, by one small jitted function without loops: a
+    concrete model's assembly runs its steps on the host around it."""
+    t0 = np.asarray(t0, np.float64)
+    return lambda q: tuple(np.asarray(x) for x in _linearized_jit(model, q, t0))
 
-    start_residual: jax.Array
-    start_jacobian: jax.Array
-    q: jax.Array
-    residual: jax.Array
-    qd: jax.Array
+
+_linearized_jit = eqx.filter_jit(linearized)
+
+
+def _host_while(going, step, carry):
+    """`jax.lax.while_loop` on the host."""
+    while going(carry):
+        carry = step(carry)
+    return carry
 
 
 @eqx.filter_jit
-def _assembled(model, q_guess, qd_guess, t0, differentiable: bool) -> _Assembly:
-    """The assembly as one compiled program (a few small loops, compiled once, instead of many
-    one-operation programs): Gauss–Newton steps onto the manifold, Newton's method on the
-    projection, the velocities' projection. The checks read its result on the host.
-    ``differentiable`` (static; where any input is traced): the projection's last step carries
-    its derivative (`_projection`)."""
-    start = jax.lax.stop_gradient(_onto_manifold(model, q_guess, t0))
-    start_residual, jac, _ = linearized(model, start, t0)
-    q = _projection(model, q_guess, t0, start, jac, differentiable)
-    residual, jac_q, phi_t = linearized(model, q, t0)
-    qd = qd_guess - jac_q.T @ jnp.linalg.solve(jac_q @ jac_q.T, jac_q @ qd_guess + phi_t)
-    return _Assembly(start_residual, jac, q, residual, qd)
+def _traced(model, q_guess, qd_guess, t0):
+    """(q0, qd0) of a traced model, inside the caller's program: the steps of a concrete one in
+    `jax.numpy`, the projection's point held constant, then one Newton step from it that
+    carries the derivative in the model and the guess, that of the implicit function theorem,
+    -K^-1 dF/dp (module docstring)."""
+    frozen, guess, time = jax.lax.stop_gradient((model, q_guess, t0))
+
+    def linearize(q):
+        return linearized(frozen, q, time)
+
+    start, _, jac = _onto_manifold(linearize, guess, jnp, jax.lax.while_loop)
+    y, _ = _projection(linearize, guess, start, jac, jnp, jax.lax.while_loop)
+    q = (y + _newton_step(model, q_guess, t0, y))[: model.n_coordinates]
+    _, jac_q, phi_t = linearized(model, q, t0)
+    return q, _velocities(jnp, jac_q, phi_t, qd_guess)
 
 
-def _onto_manifold(model, q, t0):
+def _going(limit):
+    """A loop's condition: its last residual above `TOLERANCE` and fewer than ``limit`` steps."""
+    return lambda carry: (carry[1] > TOLERANCE) & (carry[2] < limit)
+
+
+def _onto_manifold(linearize, q, xp, while_loop):
     """Gauss–Newton steps with minimum-norm corrections, dq = -Phi_q^T (Phi_q Phi_q^T)^-1 Phi,
     until a step starts where the residual is below `TOLERANCE`, or `GAUSS_NEWTON_STEPS` are
-    taken."""
+    taken; the point reached with its residual and Phi_q. In the array module ``xp`` with the
+    loop ``while_loop`` (`jax.lax`'s signature); ``linearize``: q -> `linearized` at t0."""
 
     def step(carry):
         q, _, i = carry
-        phi, jac, _ = linearized(model, q, t0)
-        return q - jac.T @ jnp.linalg.lstsq(jac @ jac.T, phi)[0], jnp.max(jnp.abs(phi)), i + 1
+        phi, jac, _ = linearize(q)
+        return q - jac.T @ xp.linalg.lstsq(jac @ jac.T, phi)[0], xp.max(xp.abs(phi)), i + 1
 
-    def going(carry):
-        _, residual, i = carry
-        return (residual > TOLERANCE) & (i < GAUSS_NEWTON_STEPS)
-
-    return jax.lax.while_loop(going, step, (q, jnp.inf, 0))[0]
+    q = while_loop(_going(GAUSS_NEWTON_STEPS), step, (q, xp.inf, 0))[0]
+    phi, jac, _ = linearize(q)
+    return q, phi, jac
 
 
-def _projection(model, q_guess, t0, start, jac, differentiable: bool):
-    """The point of the manifold nearest ``q_guess``: from ``start`` (on the manifold) and its
-    multipliers' least-squares estimate, Gauss–Newton steps on the optimality conditions
-    F(q, lambda) = 0 (module docstring: `_newton_step` without the constraints' curvature, which
-    converges linearly to the same point and compiles much smaller), until a step starts where
-    they hold within `TOLERANCE`, or `PROJECTION_STEPS` are taken. If ``differentiable``, then
-    one Newton step from the point found, held constant, which carries the derivative in the
-    model and the guess: that of the implicit function theorem, -K^-1 dF/dp."""
-    n = model.n_coordinates
+def _projection(linearize, q_guess, start, jac, xp, while_loop):
+    """The point y = (q, lambda) of the manifold nearest ``q_guess``, from ``start`` (on the
+    manifold, Phi_q there ``jac``) and its multipliers' least-squares estimate: Gauss–Newton
+    steps on the optimality conditions F(q, lambda) = 0 (`_optimality` without the constraints'
+    curvature, which converges linearly to the same point and compiles much smaller), until a
+    step starts where they hold within `TOLERANCE`, or `PROJECTION_STEPS` are taken; and
+    `linearized` at its q. ``xp``, ``while_loop``, ``linearize``: as `_onto_manifold`'s."""
+    n = q_guess.shape[0]
 
     def step(carry):
         y, _, i = carry
-        dy, f = _newton_step(model, q_guess, t0, y, curvature=False)
-        return y + dy, jnp.max(jnp.abs(f)), i + 1
+        phi, jac, _ = linearize(y[:n])
+        k, f = _optimality(xp, y, q_guess, phi, jac, xp.eye(n))
+        return y - xp.linalg.solve(k, f), xp.max(xp.abs(f)), i + 1
 
-    def going(carry):
-        _, residual, i = carry
-        return (residual > TOLERANCE) & (i < PROJECTION_STEPS)
-
-    lam = -jnp.linalg.solve(jac @ jac.T, jac @ (start - q_guess))
-    y0 = jax.lax.stop_gradient(jnp.concatenate([start, lam]))
-    found = jax.lax.stop_gradient(jax.lax.while_loop(going, step, (y0, jnp.inf, 0))[0])
-    if not differentiable:
-        return found[:n]
-    return (found + _newton_step(model, q_guess, t0, found, curvature=True)[0])[:n]
+    lam = -xp.linalg.solve(jac @ jac.T, jac @ (start - q_guess))
+    y = while_loop(_going(PROJECTION_STEPS), step, (xp.concatenate([start, lam]), xp.inf, 0))[0]
+    return y, linearize(y[:n])
 
 
-def _newton_step(model, q_guess, t0, y, curvature: bool):
-    """The step -K^-1 F at y = (q, lambda) on the projection's optimality conditions F, K held
-    constant: K = [[I + sum_i lambda_i Phi_i,qq, Phi_q^T], [Phi_q, 0]] (Newton's method), without
-    the sum unless ``curvature`` (Gauss–Newton); and F."""
+def _velocities(xp, jac_q, phi_t, qd_guess):
+    """The velocity guess projected onto Phi_q qd + Phi_t = 0 (minimum-norm correction)."""
+    return qd_guess - jac_q.T @ xp.linalg.solve(jac_q @ jac_q.T, jac_q @ qd_guess + phi_t)
+
+
+def _optimality(xp, y, q_guess, phi, jac, upper):
+    """The projection's optimality conditions F at y = (q, lambda) (module docstring) and their
+    Jacobian K = [[upper, Phi_q^T], [Phi_q, 0]]: upper = I + sum_i lambda_i Phi_i,qq for Newton's
+    method, I for Gauss–Newton."""
+    n, m = q_guess.shape[0], phi.shape[0]
+    k = xp.block([[upper, jac.T], [jac, xp.zeros((m, m))]])
+    return k, xp.concatenate([y[:n] - q_guess + jac.T @ y[n:], phi])
+
+
+def _newton_step(model, q_guess, t0, y):
+    """Newton's step -K^-1 F on the projection's optimality conditions at y = (q, lambda), K
+    held constant (`_optimality`)."""
     n = model.n_coordinates
     q, lam = y[:n], y[n:]
     phi, jac, _ = linearized(model, q, t0)
-    upper = jnp.eye(n)
-    if curvature:
-        upper = upper + jax.hessian(lambda q: lam @ constraints(model, q, t0))(q)
-    k = jnp.block([[upper, jac.T], [jac, jnp.zeros((lam.size, lam.size))]])
-    f = jnp.concatenate([q - q_guess + jac.T @ lam, phi])
-    return -jnp.linalg.solve(jax.lax.stop_gradient(k), f), f
+    upper = jnp.eye(n) + jax.hessian(lambda q: lam @ constraints(model, q, t0))(q)
+    k, f = _optimality(jnp, y, q_guess, phi, jac, upper)
+    return -jnp.linalg.solve(jax.lax.stop_gradient(k), f)
 
 
 def _check_closed(model, residual, method: str) -> None:
