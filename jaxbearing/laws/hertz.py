@@ -56,16 +56,21 @@ kappa -> 1 (the sphere limit, F -> 0). `ellipticity` is solved by safeguarded Ne
 from the Hamrock–Brewe estimate and differentiated implicitly (`jax.custom_jvp`), so gradients
 are exact and do not depend on the iteration history. Every function is pure, elementwise,
 float64, and safe under `jax.jit`, `jax.vmap` and `jax.grad`. Concrete inputs are validated with
-a `ValueError` that names the parameter; traced inputs are not checked here.
+a `ValueError` that names the parameter, and evaluated in NumPy with the same steps, so that
+building a bearing compiles nothing; traced inputs are not checked here, and are evaluated as
+one jitted program per law.
 """
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .. import _checks
-from ._ellipse import complete_elliptic, contact_shape
+from ._ellipse import elliptic, shape
 
 __all__ = [
     "elliptic_integrals",
@@ -85,6 +90,25 @@ __all__ = [
 # delta = 3.84e-5 Q^0.9 / l^0.8 [mm] (Q in N, l in mm) of one line contact between steel bodies
 PALMGREN_LINE = 3.84e-5
 
+
+def _law(fn):
+    """``fn(xp, *arrays)``, written once for an array module ``xp``, as a function of its
+    arrays: in NumPy where every one is concrete (a model built in a notebook compiles
+    nothing), else as one jitted `jax.numpy` program (traced, batched or differentiated through
+    the custom JVPs of `laws._ellipse`). ``law.generic`` is ``fn`` itself, for other laws to
+    compose."""
+    jitted = jax.jit(functools.partial(fn, jnp))
+
+    @functools.wraps(fn)
+    def law(*args):
+        if _checks.is_concrete(*args):
+            return jax.tree_util.tree_map(_checks.to_float64, fn(np, *(np.asarray(a) for a in args)))
+        return jitted(*args)
+
+    law.generic = fn
+    return law
+
+
 def elliptic_integrals(m):
     """Complete elliptic integrals (K(m), E(m)) of parameter m = k^2, 0 <= m < 1.
 
@@ -93,7 +117,12 @@ def elliptic_integrals(m):
     number of steps: K = pi / (2 AGM(1, sqrt(1 - m))), E = K (1 - sum_n 2^(n-1) c_n^2).
     Derivatives in closed form (DLMF 19.4.1), finite at m = 0. Dimensionless.
     """
-    return complete_elliptic(_checks.as_float(m, "elliptic parameter m", "-"))
+    return _elliptic_integrals(_checks.as_float(m, "elliptic parameter m", "-"))
+
+
+@_law
+def _elliptic_integrals(xp, m):
+    return elliptic(xp, m)
 
 
 # --------------------------------------------------------------------------------------------
@@ -119,9 +148,9 @@ def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_oute
     ]
 
 
-@jax.jit
-def _curvature_sums(d, dm, fi, fo, alpha):
-    gamma = d * jnp.cos(alpha) / dm
+@_law
+def _curvature_sums(xp, d, dm, fi, fo, alpha):
+    gamma = d * xp.cos(alpha) / dm
     gi = 2.0 * gamma / (1.0 - gamma)
     go = 2.0 * gamma / (1.0 + gamma)
     den_i = 4.0 - 1.0 / fi + gi
@@ -163,9 +192,9 @@ def _curvature_difference_rules(xp, f):
     return [((v < 0.0) | (v >= 1.0), "curvature_difference F(rho) must lie in [0, 1)", f)]
 
 
-@jax.jit
-def _ellipticity(f):
-    return jnp.exp(contact_shape(f)[0])
+@_law
+def _ellipticity(xp, f):
+    return xp.exp(shape(xp, f)[0])
 
 
 def ellipticity(curvature_difference):
@@ -180,9 +209,9 @@ def ellipticity(curvature_difference):
     return _ellipticity(f)
 
 
-@jax.jit
-def _dimensionless_deflection(f):
-    return contact_shape(f)[1]
+@_law
+def _dimensionless_deflection(xp, f):
+    return shape(xp, f)[1]
 
 
 def dimensionless_deflection(curvature_difference):
@@ -202,11 +231,11 @@ def dimensionless_deflection(curvature_difference):
 # --------------------------------------------------------------------------------------------
 
 
-@jax.jit
-def _race_stiffness(rho, f, e, nu):
+@_law
+def _race_stiffness(xp, rho, f, e, nu):
     e_prime = e / (1.0 - nu * nu)
-    delta_star = contact_shape(f)[1]
-    return 2.0 * jnp.sqrt(2.0) * e_prime / (3.0 * jnp.sqrt(rho)) * delta_star**-1.5
+    delta_star = shape(xp, f)[1]
+    return 2.0 * xp.sqrt(2.0) * e_prime / (3.0 * xp.sqrt(rho)) * delta_star**-1.5
 
 
 def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio):
@@ -232,8 +261,8 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
     return _race_stiffness(rho, f, e, nu)
 
 
-@jax.jit
-def _ball_stiffness(ki, ko):
+@_law
+def _ball_stiffness(xp, ki, ko):
     return (ki ** (-2.0 / 3.0) + ko ** (-2.0 / 3.0)) ** -1.5
 
 
@@ -253,15 +282,15 @@ def ball_stiffness(k_inner, k_outer):
     return _ball_stiffness(ki, ko)
 
 
-@jax.jit
-def _bearing_stiffness(d, dm, fi, fo, e, nu, alpha):
-    rho_i, f_i, rho_o, f_o = _curvature_sums(d, dm, fi, fo, alpha)
+@_law
+def _bearing_stiffness(xp, d, dm, fi, fo, e, nu, alpha):
+    rho_i, f_i, rho_o, f_o = _curvature_sums.generic(xp, d, dm, fi, fo, alpha)
     # Both contacts in one (stacked) solve: half the program to compile.
-    k_io = _race_stiffness(
-        jnp.stack([rho_i, rho_o]), jnp.stack([f_i, f_o]), e[None, ...], nu[None, ...]
+    k_io = _race_stiffness.generic(
+        xp, xp.stack([rho_i, rho_o]), xp.stack([f_i, f_o]), e[None, ...], nu[None, ...]
     )
     k_i, k_o = k_io[0], k_io[1]
-    return k_i, k_o, _ball_stiffness(k_i, k_o)
+    return k_i, k_o, _ball_stiffness.generic(xp, k_i, k_o)
 
 
 def bearing_stiffness(
@@ -304,11 +333,11 @@ def bearing_stiffness(
     return _bearing_stiffness(d, dm, fi, fo, e, nu, alpha)
 
 
-@jax.jit
-def _impact_stiffness(rj, rk, ej, nj, ek, nk):
-    h_j = (1.0 - nj * nj) / (jnp.pi * ej)
-    h_k = (1.0 - nk * nk) / (jnp.pi * ek)
-    return 4.0 / (3.0 * jnp.pi * (h_j + h_k)) * jnp.sqrt(rj * rk / (rj + rk))
+@_law
+def _impact_stiffness(xp, rj, rk, ej, nj, ek, nk):
+    h_j = (1.0 - nj * nj) / (xp.pi * ej)
+    h_k = (1.0 - nk * nk) / (xp.pi * ek)
+    return 4.0 / (3.0 * xp.pi * (h_j + h_k)) * xp.sqrt(rj * rk / (rj + rk))
 
 
 def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poisson_k=None):
@@ -346,8 +375,8 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
 # --------------------------------------------------------------------------------------------
 
 
-@jax.jit
-def _roller_stiffness(length):
+@_law
+def _roller_stiffness(xp, length):
     l_mm = 1e3 * length
     k_mm = (2.0 * PALMGREN_LINE) ** (-10.0 / 9.0) * l_mm ** (8.0 / 9.0)  # [N/mm^(10/9)]
     return k_mm * 1e3 ** (10.0 / 9.0)
@@ -370,8 +399,8 @@ def roller_stiffness(roller_length):
     return _roller_stiffness(length)
 
 
-@jax.jit
-def _roller_curvature_sums(d, dm):
+@_law
+def _roller_curvature_sums(xp, d, dm):
     gamma = d / dm
     return 2.0 / (d * (1.0 - gamma)), 2.0 / (d * (1.0 + gamma))
 
@@ -399,15 +428,15 @@ def roller_curvature_sums(roller_diameter, pitch_diameter):
 # --------------------------------------------------------------------------------------------
 
 
-@jax.jit
-def _point_contact_stress(q, rho, f, e, nu):
+@_law
+def _point_contact_stress(xp, q, rho, f, e, nu):
     e_prime = e / (1.0 - nu * nu)
-    log_kappa = contact_shape(f)[0]
-    kappa = jnp.exp(log_kappa)
-    _, e_m = complete_elliptic(-jnp.expm1(-2.0 * log_kappa))
-    ab_star = jnp.cbrt(4.0 * kappa * e_m * e_m / (jnp.pi * jnp.pi))  # a* b*
-    ab = ab_star * jnp.cbrt(3.0 * q / (e_prime * rho)) ** 2
-    return 3.0 * q / (2.0 * jnp.pi * ab)
+    log_kappa = shape(xp, f)[0]
+    kappa = xp.exp(log_kappa)
+    _, e_m = elliptic(xp, -xp.expm1(-2.0 * log_kappa))
+    ab_star = xp.cbrt(4.0 * kappa * e_m * e_m / (xp.pi * xp.pi))  # a* b*
+    ab = ab_star * xp.cbrt(3.0 * q / (e_prime * rho)) ** 2
+    return 3.0 * q / (2.0 * xp.pi * ab)
 
 
 def point_contact_stress(load, sum_rho, curvature_difference, youngs_modulus, poisson_ratio):
@@ -436,9 +465,9 @@ def point_contact_stress(load, sum_rho, curvature_difference, youngs_modulus, po
     return _point_contact_stress(q, rho, f, e, nu)
 
 
-@jax.jit
-def _line_contact_stress(q, length, rho, e, nu):
-    return jnp.sqrt(q * e / (1.0 - nu * nu) * rho / (2.0 * jnp.pi * length))
+@_law
+def _line_contact_stress(xp, q, length, rho, e, nu):
+    return xp.sqrt(q * e / (1.0 - nu * nu) * rho / (2.0 * xp.pi * length))
 
 
 def line_contact_stress(load, length, sum_rho, youngs_modulus, poisson_ratio):
