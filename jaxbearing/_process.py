@@ -24,8 +24,9 @@
    (``jax_persistent_cache_min_compile_time_secs`` 0 unless the process set a threshold itself:
    by ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS``, or by ``jax.config.update`` before the
    import to a value other than JAX's default, `JAX_MIN_COMPILE_TIME`, which keeps only the
-   programs that took a second or more): the main job's summaries and the other small programs a run meets would otherwise compile again in every process, a good part
-   of a second run's time. The cache is bounded (``jax_compilation_cache_max_size`` `CACHE_MAX_SIZE`, unless the
+   programs that took a second or more): the main job's summaries and the other small
+   programs a run meets would otherwise compile again in every process, a good part of a
+   second run's time. The cache is bounded (``jax_compilation_cache_max_size`` `CACHE_MAX_SIZE`, unless the
    process set a size itself, by ``jax.config.update`` or ``JAX_COMPILATION_CACHE_MAX_SIZE``):
    beyond it JAX deletes the least recently used programs, which needs the ``filelock``
    package (a dependency of jaxbearing; without it JAX warns and caches nothing). Only where
