@@ -306,11 +306,11 @@ _FIRST_RUN_EAGER = {"convert_element_type", "bitwise_or", "not_equal", "equal"}
 def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     """The path a notebook walks, in a fresh process: building the paper's case compiles nothing
     (its stiffness laws are NumPy), the four-bar its assembly's constraints and Jacobians (one
-    small program without loops: the assembly's steps are NumPy), the rotor nothing, none of them an eager operation on a known value (NumPy checks and
-    conversions); the rotor's first `simulate` compiles the solve, the program that cuts its
-    outputs to the times asked for, and at most the 4 one-operation programs of
-    `_FIRST_RUN_EAGER` (none of `simulate`'s argument checks); the same call again compiles
-    nothing."""
+    small program without loops: the assembly's steps are NumPy), the rotor nothing, none of
+    them an eager operation on a known value (NumPy checks and conversions); the rotor's first
+    `simulate` compiles the solve, the program that cuts its outputs to the times asked for, and
+    at most the 4 one-operation programs of `_FIRST_RUN_EAGER` (none of `simulate`'s argument
+    checks); the same call again compiles nothing."""
     env = {**os.environ, "JAXBEARING_NO_COMPILATION_CACHE": "1"}
     done = subprocess.run([sys.executable, "-c", _NOTEBOOK], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -358,9 +358,9 @@ print(json.dumps([folder, config.jax_persistent_cache_min_compile_time_secs, sto
 def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cache_env):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the four-bar's assembly constraints,
-    compiled in a fraction of a second, are stored), bounded in size (JAX then needs `filelock`, else it
-    stores nothing), unless the process chose a folder, a threshold or a size itself or opts
-    out."""
+    compiled in a fraction of a second, are stored), bounded in size (JAX then needs
+    `filelock`, else it stores nothing), unless the process chose a folder, a threshold or a
+    size itself or opts out."""
 
     def cache(*args, **env):
         done = subprocess.run(

@@ -101,9 +101,9 @@ def _law(fn):
 
     @functools.wraps(fn)
     def law(*args):
-        if _checks.is_concrete(*args):
-            return jax.tree_util.tree_map(_checks.to_float64, fn(np, *(np.asarray(a) for a in args)))
-        return jitted(*args)
+        if not _checks.is_concrete(*args):
+            return jitted(*args)
+        return jax.tree_util.tree_map(_checks.to_float64, fn(np, *(np.asarray(a) for a in args)))
 
     law.generic = fn
     return law
