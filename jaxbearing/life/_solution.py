@@ -200,7 +200,7 @@ def iso_life(
 def _window(sol: Solution, model: Mechanism, bearing, t_min, t_max):
     """(index of the bearing joint, the window's edges [s]) of a life of ``sol`` after its
     checks (`_window_integrals`; in NumPy where known in Python)."""
-    _window_integrals(sol, _fatigue(sol, model, bearing), t_min, t_max)
+    _window_integrals(sol, _fatigue(sol, model, bearing), t_min, t_max)  # its checks only
     index = bearing_index(sol, bearing)
     return index, checked_window(sol, t_min, t_max, sol.bearings[index].fatigue)
 

@@ -114,7 +114,7 @@ def static_safety(
     element diameter (ISO 76); impacts and shocks usually call for s_0 of 1.5–2 or more.
     """
     b = _solved_joint(sol, model, bearing).bearing
-    metrics.bearing_index(sol, bearing)
+    metrics.bearing_index(sol, bearing)  # checked before the window, as the metrics do
     edges = metrics.checked_window(sol, t_min, t_max)
     grooves = _checks.as_floats((groove_inner, "groove_inner", "-"), (groove_outer, "groove_outer", "-"))
     if not isinstance(b, RollerBearing):  # a roller's line contacts have no conformity
