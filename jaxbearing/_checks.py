@@ -197,6 +197,16 @@ def to_float64(value) -> jax.Array:
     return jax.device_put(np.asarray(value, np.float64))
 
 
+def evaluate(kernel, *args):
+    """``kernel(xp, *args)``: in NumPy where every argument is known in Python (compiles
+    nothing; the results as float64 JAX arrays), else in `jax.numpy` inside the caller's
+    program (traced: differentiable)."""
+    if is_concrete(*jax.tree_util.tree_leaves(args)):
+        out = kernel(np, *(np.asarray(a, np.float64) for a in args))
+        return jax.tree_util.tree_map(to_float64, out)
+    return kernel(jnp, *args)
+
+
 def on_host(tree):
     """``tree`` with every concrete JAX array as a NumPy array (traced leaves stay), so that
     its rules (``violations(np)``) evaluate in NumPy and compile nothing."""

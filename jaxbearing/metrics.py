@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import functools
 import inspect
 import itertools
 import math
@@ -68,7 +69,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._checks import is_concrete
+from ._checks import is_concrete, to_float64
 from .solution import (
     AbstractRecord,
     FORCE_SCALE,
@@ -375,9 +376,27 @@ def _inside(sol: Solution, t_min, t_max):
     has a value: both edges are stops (or outside the solved span) and the run reached its end
     (`reached`). SimulationError or ValueError when not and that is known in Python (a run
     that stopped short first: what else is wrong with the window follows from that)."""
+    return _within(sol, sol.segments, t_min, t_max)
+
+
+def _within(sol: Solution, stats, t_min, t_max):
+    """`_inside` of the intervals of ``stats`` (`SegmentStats`, `FatigueStats`)."""
     ok = reached(sol, t_max)
-    inside, on_stops = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+    inside, on_stops = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
     return inside, ok & on_stops
+
+
+def checked_window(sol: Solution, t_min, t_max, stats=None):
+    """The window's edges (lo, hi) [s] as float64 scalars (``"model"``: the model's
+    ``window_start``; None: -inf, +inf), for a jitted metric of ``sol``, after the window's
+    checks on the intervals of ``stats`` (None: ``sol.segments``), which run in NumPy where
+    ``sol`` and the window are known in Python (SimulationError, ValueError: `_inside`)."""
+    _within(sol, sol.segments if stats is None else stats, t_min, t_max)
+    lo = window_start(sol, t_min)
+    return (
+        _window_edge("t_min", -np.inf if lo is None else lo, "a time"),
+        _window_edge("t_max", np.inf if t_max is None else t_max, "a time"),
+    )
 
 
 def reached(sol: Solution, t_max):
@@ -387,9 +406,11 @@ def reached(sol: Solution, t_max):
     Python; traced, False (the metric is NaN)."""
     if t_max is not None:
         t_max = _window_edge("t_max", t_max, _END_IS)
-    end = sol.t1 if t_max is None else jnp.minimum(t_max, sol.t1)
-    ok = sol.t_final >= end - EDGE_TOLERANCE
-    if is_concrete(ok) and not bool(ok):
+    xp = np if is_concrete(sol.t_final, sol.t1, t_max) else jnp  # NumPy compiles nothing
+    t1 = xp.asarray(sol.t1)
+    end = t1 if t_max is None else xp.minimum(t_max, t1)
+    ok = xp.asarray(sol.t_final) >= end - EDGE_TOLERANCE
+    if xp is np and not bool(ok):
         why = RESULTS[sol.result] if is_concrete(sol.result._value) else "it failed"
         raise SimulationError(
             f"The window ends at t = {float(end):.6g} s, but the run stopped at t_final = "
@@ -422,37 +443,38 @@ def intervals_inside(stats, t_min, t_max, name: str):
     t_max = _window_edge("t_max", t_max, _END_IS)
     if is_concrete(t_min, t_max) and not t_max > t_min:
         raise ValueError(f"t_max must exceed t_min; got the window [{float(t_min)}, {float(t_max)}] s.")
-    start = jnp.min(jnp.where(stats.valid, stats.t_start, jnp.inf))
-    end = jnp.max(jnp.where(stats.valid, stats.t_end, -jnp.inf))
+    concrete = is_concrete(t_min, t_max, stats.valid, stats.t_start, stats.t_end)
+    xp = np if concrete else jnp  # NumPy compiles nothing
+    valid, t_start, t_end = (xp.asarray(x) for x in (stats.valid, stats.t_start, stats.t_end))
+    start = xp.min(xp.where(valid, t_start, xp.inf))
+    end = xp.max(xp.where(valid, t_end, -xp.inf))
 
     def is_edge(t, ends):
-        near = stats.valid & (jnp.abs(ends - t) <= EDGE_TOLERANCE)
-        return (t <= start + EDGE_TOLERANCE) | (t >= end - EDGE_TOLERANCE) | jnp.any(near)
+        near = valid & (xp.abs(ends - t) <= EDGE_TOLERANCE)
+        return (t <= start + EDGE_TOLERANCE) | (t >= end - EDGE_TOLERANCE) | xp.any(near)
 
-    edges = ((t_min, is_edge(t_min, stats.t_start)), (t_max, is_edge(t_max, stats.t_end)))
+    edges = ((t_min, is_edge(t_min, t_start)), (t_max, is_edge(t_max, t_end)))
     ok = edges[0][1] & edges[1][1]
-    if is_concrete(ok) and not bool(ok):
+    if concrete and not bool(ok):
         missing = tuple(float(t) for t, edge in edges if not bool(edge))
         raise ValueError(
             f"The window [{float(t_min)}, {float(t_max)}] s needs its edges to be ends of the "
             f"solution's {name} (not: {', '.join(map(str, missing))} s): pass the edges to "
             f"simulate, as simulate(..., options=jaxbearing.SolveOptions(window_edges={missing}))."
         )
-    inside = (
-        stats.valid
-        & (stats.t_start >= t_min - EDGE_TOLERANCE)
-        & (stats.t_end <= t_max + EDGE_TOLERANCE)
-    )
-    _check_not_empty(jnp.any(inside), t_min, t_max, start, end, "part of the solved span")
+    inside = valid & (t_start >= t_min - EDGE_TOLERANCE) & (t_end <= t_max + EDGE_TOLERANCE)
+    _check_not_empty(xp.any(inside), t_min, t_max, start, end, "part of the solved span")
     return inside, ok
 
 
 def _window_edge(name, value, what) -> jax.Array:
-    """A window edge [s] as a float64 scalar; a ValueError saying what it must be."""
+    """A window edge [s] as a float64 scalar (NumPy where known in Python: compiles nothing); a
+    ValueError saying what it must be."""
     edge = None
     if not isinstance(value, (bool, str, type(None))):
+        xp = np if is_concrete(value) else jnp
         try:
-            edge = jnp.asarray(value, jnp.float64)
+            edge = xp.asarray(value, xp.float64)
         except (TypeError, ValueError):
             pass
     if edge is None or edge.ndim != 0:
@@ -462,8 +484,15 @@ def _window_edge(name, value, what) -> jax.Array:
 
 def _peak(sol: Solution, column, t_min, t_max):
     """Max of ``segments.peaks[:, column]`` over the window; NaN if the window has no value.
-    ``column`` None (an element the model lacks): 0."""
-    inside, ok = _inside(sol, t_min, t_max)
+    ``column`` None (an element the model lacks): 0. One jitted call after the window's
+    checks."""
+    return _peak_of(sol, *checked_window(sol, t_min, t_max), column)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _peak_of(sol: Solution, lo, hi, column):
+    """`_peak` over the window [lo, hi] [s]."""
+    inside, ok = _inside(sol, lo, hi)
     if column is None:
         return jnp.where(ok & jnp.any(inside), 0.0, jnp.nan)
     peak = jnp.max(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
@@ -480,12 +509,18 @@ def _integral(sol: Solution, column, t_min, t_max):
 
 
 def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
-    """FORCE_SCALE (integral / (count T))^(1/p) [N] of a recorded power integral."""
+    """FORCE_SCALE (integral / (count T))^(1/p) [N] of a recorded power integral, one jitted
+    call after the checks."""
     if is_concrete(p) and float(p) != POWER:
         raise ValueError(
             f"The solution records power means of order p = {POWER} only; got p = {p}."
         )
-    total, duration = _integral(sol, column, t_min, t_max)
+    return _power_mean_of(sol, *checked_window(sol, t_min, t_max), column, count)
+
+
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _power_mean_of(sol: Solution, lo, hi, column, count):
+    total, duration = _integral(sol, column, lo, hi)
     return FORCE_SCALE * (total / (count * duration)) ** (1.0 / POWER)
 
 
@@ -553,7 +588,12 @@ def rms_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None)
     Gauss–Legendre quadrature of each step's interpolant (exact for integrands of degree <= 5
     over a step). Smooth. ``bearing`` as in `peak_ball_load`."""
     column = integral_column("force_squared", bearing_index(sol, bearing), sol.n_bearings)
-    total, duration = _integral(sol, column, t_min, t_max)
+    return _rms_of(sol, *checked_window(sol, t_min, t_max), column)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _rms_of(sol: Solution, lo, hi, column):
+    total, duration = _integral(sol, column, lo, hi)
     return jnp.sqrt(total / duration)
 
 
@@ -669,10 +709,15 @@ def peak_time(
     bearing = _either("bearing", bearing, None, theirs.get("bearing"))
     contact = _either("contact", contact, None, theirs.get("contact"))
     column = _peak_column(sol, metric, bearing, contact, theirs.get("coordinate"))
+    edges = checked_window(sol, t_min, t_max)
     if column is None:  # no contact: nothing was struck, at no time
-        _inside(sol, t_min, t_max)  # the window's checks
-        return jnp.asarray(jnp.nan)
-    i, peak, has_value = _where_peak(sol, column, t_min, t_max)
+        return to_float64(np.nan)
+    return _peak_time_of(sol, *edges, column)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _peak_time_of(sol: Solution, lo, hi, column):
+    i, peak, has_value = _where_peak(sol, column, lo, hi)
     time = jax.lax.stop_gradient(sol.segments.peak_times[i, column])
     return jnp.where(has_value & (peak > 0.0), time, jnp.nan)
 
@@ -684,7 +729,12 @@ def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> 
     distribution at the worst instant (`SegmentStats.peak_loads`); NaN for a window without
     value (traced). A vector: in a sweep, take one ball's entry."""
     b = bearing_index(sol, bearing)
-    i, _, has_value = _where_peak(sol, _column(sol, "ball_load", b), t_min, t_max)
+    return _loads_at_peak_of(sol, *checked_window(sol, t_min, t_max), b)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _loads_at_peak_of(sol: Solution, lo, hi, b):
+    i, _, has_value = _where_peak(sol, _column(sol, "ball_load", b), lo, hi)
     return jnp.where(has_value, sol.segments.peak_loads[b][i], jnp.nan)
 
 
@@ -692,7 +742,13 @@ def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> 
 def peak_ball(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
     """The ball that carries `peak_ball_load` in the window: its column of the bearing's
     ``ball_loads`` (0 = ball 1), an int; -1 for a window without value (traced)."""
-    loads = loads_at_peak(sol, t_min, t_max, bearing=bearing)
+    b = bearing_index(sol, bearing)
+    return _peak_ball_of(sol, *checked_window(sol, t_min, t_max), b)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _peak_ball_of(sol: Solution, lo, hi, b):
+    loads = _loads_at_peak_of(sol, lo, hi, b)
     return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 

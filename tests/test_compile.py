@@ -290,12 +290,42 @@ def step(label, f):
     return value
 step("xu2014", jb.cases.xu2014)
 step("four_bar", jb.cases.four_bar)
-rotor = step("rotor", lambda: jb.cases.rotor(jb.cases.skf98205()))
+rotor = step("rotor", lambda: jb.cases.rotor(jb.cases.skf98205(), speed=100.0))
 ts = np.linspace(0.0, 0.002, 5)
 for label in ("simulate", "simulate again"):
     step(label, lambda: jb.simulate(rotor, 0.002, ts).q.block_until_ready())
+sol = jb.simulate(rotor, 0.002, ts)
+results = {
+    "peak_ball_load": lambda: jb.metrics.peak_ball_load(sol),
+    "rms_bearing_force": lambda: jb.metrics.rms_bearing_force(sol),
+    "smooth_peak_ball_load": lambda: jb.metrics.smooth_peak_ball_load(sol),
+    "peak_time": lambda: jb.metrics.peak_time(sol, jb.metrics.peak_ball_load),
+    "loads_at_peak": lambda: jb.metrics.loads_at_peak(sol),
+    "peak_ball": lambda: jb.metrics.peak_ball(sol),
+    "l10_hours": lambda: jb.life.l10_hours(sol, rotor),
+    "lp_life": lambda: jb.life.lp_life(sol, rotor),
+    "static_safety": lambda: jb.life.static_safety(sol, rotor),
+    "ratings": lambda: (jb.life.dynamic_rating(rotor.bearing), jb.life.static_rating(rotor.bearing)),
+}
+for label, result in results.items():
+    for again in ("", " again"):
+        step(label + again, lambda: jax.block_until_ready(result()))
 print(json.dumps(steps))
 """
+# the one program each metric or life of `_NOTEBOOK` compiles on its first call (its window's
+# checks run in NumPy; the ratings of a concrete bearing are NumPy, no program)
+_RESULT_PROGRAMS = {
+    "peak_ball_load": ["_peak_of"],
+    "rms_bearing_force": ["_rms_of"],
+    "smooth_peak_ball_load": ["_power_mean_of"],
+    "peak_time": ["_peak_time_of"],
+    "loads_at_peak": ["_loads_at_peak_of"],
+    "peak_ball": ["_peak_ball_of"],
+    "l10_hours": ["_iso_life"],
+    "lp_life": ["_lp_life"],
+    "static_safety": ["_static_safety"],
+    "ratings": [],
+}
 # the one-operation programs a first `simulate` still compiles, outside jaxbearing's solve: diffrax's
 # Runge-Kutta step compares its constant result code while the solve's first state is traced
 # (`_core.initial_state`'s `eqx.filter_eval_shape` of the step), and `solution.raise_on_failure`
@@ -310,7 +340,9 @@ def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     them an eager operation on a known value (NumPy checks and conversions); the rotor's first
     `simulate` compiles the solve, the program that cuts its outputs to the times asked for, and
     at most the 4 one-operation programs of `_FIRST_RUN_EAGER` (none of `simulate`'s argument
-    checks); the same call again compiles nothing."""
+    checks); the same call again compiles nothing. Then each metric and life of the run
+    compiles its one program (`_RESULT_PROGRAMS`: the window's checks in NumPy, the value in one
+    jitted call), and nothing the second time."""
     env = {**os.environ, "JAXBEARING_NO_COMPILATION_CACHE": "1"}
     done = subprocess.run([sys.executable, "-c", _NOTEBOOK], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -323,6 +355,9 @@ def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     assert len(names["simulate"]) == len(first) <= 6, steps  # each program once
     assert {"_simulate", "first_rows"} <= first <= {"_simulate", "first_rows"} | _FIRST_RUN_EAGER, steps
     assert names["simulate again"] == [], steps
+    for label, programs in _RESULT_PROGRAMS.items():
+        assert names[label] == programs, (label, steps)
+        assert names[label + " again"] == [], (label, steps)
 
 
 def test_no_private_apis_or_compiler_tricks_in_the_package():

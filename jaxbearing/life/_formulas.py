@@ -203,7 +203,9 @@ def reliability_factor(reliability):
         ],
         s,
     )
-    return jnp.interp(s, jnp.asarray(A1_RELIABILITY), jnp.asarray(A1_TABLE))
+    return _checks.evaluate(
+        lambda xp, s: xp.interp(s, xp.asarray(A1_RELIABILITY), xp.asarray(A1_TABLE)), s
+    )
 
 
 def mean_speed_rpm(ts, relative_speed, t_min=None, t_max=None):

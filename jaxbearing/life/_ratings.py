@@ -5,8 +5,6 @@ bearings."""
 
 from __future__ import annotations
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks
@@ -92,26 +90,25 @@ def _geometry_rules(xp, n_balls, ball_diameter, pitch_diameter, contact_angle, e
     ]
 
 
-def _table_factor(ratio, table_ratio, table, what, element):
-    """A factor of a standard's table, linearly interpolated, refusing a concrete ratio outside
-    the table's range (``what``: the table's name, ``element``: "ball" or "roller", for the
-    message)."""
-    r = _checks.as_float(ratio, "ratio", "-")
-    _checks.check(
-        lambda xp, r: _finite(xp, ratio=r)
-        + [
-            (
-                (r < table_ratio[0] - 1e-12) | (r > table_ratio[-1] + 1e-12),
-                (
-                    f"{element}_diameter * cos(contact_angle) / pitch_diameter must lie in "
-                    f"[{table_ratio[0]:g}, {table_ratio[-1]:g}] ({what})"
-                ),
-                r,
-            )
-        ],
+def _table_rule(r, table_ratio, what, element):
+    """The rule that the ratio ``r`` lies in the range of a standard's table (``what``: the
+    table's name, ``element``: "ball" or "roller", for the message)."""
+    return (
+        (r < table_ratio[0] - 1e-12) | (r > table_ratio[-1] + 1e-12),
+        (
+            f"{element}_diameter * cos(contact_angle) / pitch_diameter must lie in "
+            f"[{table_ratio[0]:g}, {table_ratio[-1]:g}] ({what})"
+        ),
         r,
     )
-    return jnp.interp(r, jnp.asarray(table_ratio), jnp.asarray(table))
+
+
+def _table_factor(ratio, table_ratio, table, what, element):
+    """A factor of a standard's table, linearly interpolated, refusing a concrete ratio outside
+    the table's range (`_table_rule`)."""
+    r = _checks.as_float(ratio, "ratio", "-")
+    _checks.check(lambda xp, r: _finite(xp, ratio=r) + [_table_rule(r, table_ratio, what, element)], r)
+    return _checks.evaluate(lambda xp, r: xp.interp(r, xp.asarray(table_ratio), xp.asarray(table)), r)
 
 
 # --------------------------------------------------------------------------------------------
@@ -132,18 +129,17 @@ def load_rating_factor(ratio):
     return _table_factor(ratio, FC_RATIO, FC_TABLE, "ISO 281 Table 2", "ball")
 
 
-def _ball_size_term(d_mm):
+def _ball_size_term(xp, d_mm):
     """D^1.8, or 3.647 D^1.4 for D > 25.4 mm (ISO 281:2007; continuous at 25.4 mm to 0.03 %)."""
-    safe_small = jnp.minimum(d_mm, LARGE_BALL)
-    safe_large = jnp.maximum(d_mm, LARGE_BALL)
-    return jnp.where(d_mm <= LARGE_BALL, safe_small**1.8, 3.647 * safe_large**1.4)
+    safe_small = xp.minimum(d_mm, LARGE_BALL)
+    safe_large = xp.maximum(d_mm, LARGE_BALL)
+    return xp.where(d_mm <= LARGE_BALL, safe_small**1.8, 3.647 * safe_large**1.4)
 
 
-@jax.jit
-def _dynamic_load_rating(z, d, dm, alpha, b_m):
-    ratio = d * jnp.cos(alpha) / dm
-    fc = jnp.interp(ratio, jnp.asarray(FC_RATIO), jnp.asarray(FC_TABLE))
-    return b_m * fc * jnp.cos(alpha) ** 0.7 * z ** (2.0 / 3.0) * _ball_size_term(1e3 * d)
+def _dynamic_load_rating(xp, z, d, dm, alpha, b_m):
+    ratio = d * xp.cos(alpha) / dm
+    fc = xp.interp(ratio, xp.asarray(FC_RATIO), xp.asarray(FC_TABLE))
+    return b_m * fc * xp.cos(alpha) ** 0.7 * z ** (2.0 / 3.0) * _ball_size_term(xp, 1e3 * d)
 
 
 def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.0, *, b_m=B_M):
@@ -180,11 +176,17 @@ def dynamic_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.
             xp, n_balls=z, ball_diameter=d, pitch_diameter=dm, contact_angle=alpha, b_m=bm
         )
         + _geometry_rules(xp, z, d, dm, alpha)
-        + [_checks.positive(xp, "b_m", bm, "-")],
+        + [_checks.positive(xp, "b_m", bm, "-")]
+        + _ratio_rules(xp, d, dm, alpha, FC_RATIO, "ISO 281 Table 2", "ball"),
         z, d, dm, alpha, bm,
     )
-    load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
-    return _dynamic_load_rating(z, d, dm, alpha, bm)
+    return _checks.evaluate(_dynamic_load_rating, z, d, dm, alpha, bm)
+
+
+def _ratio_rules(xp, d, dm, alpha, table_ratio, what, element):
+    """The rules of the ratio D cos(alpha) / d_m of a table (`_table_factor`'s)."""
+    r = d * xp.cos(alpha) / xp.where(dm != 0.0, dm, xp.nan)  # dm = 0 is refused before
+    return _finite(xp, ratio=r) + [_table_rule(r, table_ratio, what, element)]
 
 
 def roller_load_rating_factor(ratio):
@@ -208,11 +210,10 @@ def _roller_rules(xp, n_rollers, roller_diameter, pitch_diameter, roller_length,
     ]  # fmt: skip
 
 
-@jax.jit
-def _roller_dynamic_load_rating(z, d, dm, length, alpha, b_m):
-    ratio = d * jnp.cos(alpha) / dm
-    fc = jnp.interp(ratio, jnp.asarray(FC_ROLLER_RATIO), jnp.asarray(FC_ROLLER_TABLE))
-    contact = 1e3 * length * jnp.cos(alpha)
+def _roller_dynamic_load_rating(xp, z, d, dm, length, alpha, b_m):
+    ratio = d * xp.cos(alpha) / dm
+    fc = xp.interp(ratio, xp.asarray(FC_ROLLER_RATIO), xp.asarray(FC_ROLLER_TABLE))
+    contact = 1e3 * length * xp.cos(alpha)
     return b_m * fc * contact ** (7.0 / 9.0) * z**0.75 * (1e3 * d) ** (29.0 / 27.0)
 
 
@@ -251,11 +252,11 @@ def roller_dynamic_load_rating(
     _checks.check(
         lambda xp, z, d, dm, length, alpha, bm: _roller_rules(xp, z, d, dm, length, alpha)
         + _finite(xp, b_m=bm)
-        + [_checks.positive(xp, "b_m", bm, "-")],
+        + [_checks.positive(xp, "b_m", bm, "-")]
+        + _ratio_rules(xp, d, dm, alpha, FC_ROLLER_RATIO, "ISO 281 Table 7", "roller"),
         z, d, dm, length, alpha, bm,
     )
-    roller_load_rating_factor(d * jnp.cos(alpha) / dm)  # validates the table range
-    return _roller_dynamic_load_rating(z, d, dm, length, alpha, bm)
+    return _checks.evaluate(_roller_dynamic_load_rating, z, d, dm, length, alpha, bm)
 
 
 # --------------------------------------------------------------------------------------------
@@ -270,10 +271,9 @@ def static_load_factor(ratio):
     return _table_factor(ratio, F0_RATIO, F0_TABLE, "ISO 76 Table 1", "ball")
 
 
-@jax.jit
-def _static_load_rating(z, d, dm, alpha):
-    f0 = jnp.interp(d * jnp.cos(alpha) / dm, jnp.asarray(F0_RATIO), jnp.asarray(F0_TABLE))
-    return f0 * z * (1e3 * d) ** 2 * jnp.cos(alpha)
+def _static_load_rating(xp, z, d, dm, alpha):
+    f0 = xp.interp(d * xp.cos(alpha) / dm, xp.asarray(F0_RATIO), xp.asarray(F0_TABLE))
+    return f0 * z * (1e3 * d) ** 2 * xp.cos(alpha)
 
 
 def static_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.0):
@@ -297,17 +297,16 @@ def static_load_rating(n_balls, ball_diameter, pitch_diameter, contact_angle=0.0
         lambda xp, z, d, dm, alpha: _finite(
             xp, n_balls=z, ball_diameter=d, pitch_diameter=dm, contact_angle=alpha
         )
-        + _geometry_rules(xp, z, d, dm, alpha),
+        + _geometry_rules(xp, z, d, dm, alpha)
+        + _ratio_rules(xp, d, dm, alpha, F0_RATIO, "ISO 76 Table 1", "ball"),
         z, d, dm, alpha,
     )
-    static_load_factor(d * jnp.cos(alpha) / dm)  # validates the table range
-    return _static_load_rating(z, d, dm, alpha)
+    return _checks.evaluate(_static_load_rating, z, d, dm, alpha)
 
 
-@jax.jit
-def _roller_static_load_rating(z, d, dm, length, alpha):
-    ratio = d * jnp.cos(alpha) / dm
-    return ROLLER_STATIC_FACTOR * (1.0 - ratio) * z * (1e3 * length) * (1e3 * d) * jnp.cos(alpha)
+def _roller_static_load_rating(xp, z, d, dm, length, alpha):
+    ratio = d * xp.cos(alpha) / dm
+    return ROLLER_STATIC_FACTOR * (1.0 - ratio) * z * (1e3 * length) * (1e3 * d) * xp.cos(alpha)
 
 
 def roller_static_load_rating(
@@ -330,7 +329,7 @@ def roller_static_load_rating(
         (contact_angle, "contact_angle", "rad"),
     )
     _checks.check(_roller_rules, z, d, dm, length, alpha)
-    return _roller_static_load_rating(z, d, dm, length, alpha)
+    return _checks.evaluate(_roller_static_load_rating, z, d, dm, length, alpha)
 
 
 # --------------------------------------------------------------------------------------------
@@ -338,14 +337,14 @@ def roller_static_load_rating(
 # --------------------------------------------------------------------------------------------
 
 
-@jax.jit
-def _race_ratings(z, d, dm, fi, fo, alpha, factor):
-    gamma = d * jnp.cos(alpha) / dm
+def _race_ratings(xp, z, d, dm, fi, fo, alpha, b_m, reduction):
+    factor = b_m * reduction
+    gamma = d * xp.cos(alpha) / dm
     base = (
         LP_CONSTANT
         * factor
-        * (gamma / jnp.cos(alpha)) ** 0.3
-        * _ball_size_term(1e3 * d)
+        * (gamma / xp.cos(alpha)) ** 0.3
+        * _ball_size_term(xp, 1e3 * d)
         * z ** (-1.0 / 3.0)
     )
     q_ci = (
@@ -420,4 +419,4 @@ def ball_race_load_ratings(
         ],
         z, d, dm, fi, fo, alpha, bm, red,
     )
-    return _race_ratings(z, d, dm, fi, fo, alpha, bm * red)
+    return _checks.evaluate(_race_ratings, z, d, dm, fi, fo, alpha, bm, red)

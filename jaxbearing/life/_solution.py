@@ -5,6 +5,7 @@ sweep metric."""
 
 from __future__ import annotations
 
+import functools
 import inspect
 import numbers
 from typing import ClassVar, Literal
@@ -18,6 +19,7 @@ from .._checks import is_concrete
 from ..metrics import (
     AbstractMetric,
     bearing_index,
+    checked_window,
     element_index,
     finite_numbers,
     intervals_inside,
@@ -112,7 +114,12 @@ def relative_speed(sol: Solution, model: Mechanism, bearing=None) -> jax.Array:
     """omega_inner - omega_outer [rad/s] at the output times, (T,): the inner-race body's
     angular speed minus the outer-race body's (`cases.xu2014`: rod qd[:, 5] minus crank
     qd[:, 2])."""
-    return jax.vmap(_joint(model, bearing).relative_speed)(sol.q, sol.qd)
+    return _relative_speed(_joint(model, bearing), sol.q, sol.qd)
+
+
+@eqx.filter_jit
+def _relative_speed(joint, q, qd):
+    return jax.vmap(joint.relative_speed)(q, qd)
 
 
 def dynamic_rating(b) -> jax.Array:
@@ -126,9 +133,8 @@ def dynamic_rating(b) -> jax.Array:
     return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
 
 
-def _reliability(reliability, l10, n):
-    """(a1, L_nm = a1 L10, L_nm in hours at n [rpm])."""
-    a1 = reliability_factor(reliability)
+def _reliability(a1, l10, n):
+    """(a1, L_nm = a1 L10, L_nm in hours at n [rpm]) of ISO 281's factor a1."""
     return a1, a1 * l10, life_hours(a1 * l10, n)
 
 
@@ -185,17 +191,29 @@ def iso_life(
     t1); bearing: index of the bearing joint in ``model.bearings`` (None: the only one);
     reliability: S in [0.9, 0.9995].
     """
-    stats = _fatigue(sol, model, bearing)
+    index, edges = _window(sol, model, bearing, t_min, t_max)
     b = _joint(model, bearing).bearing
-    integrals, _, _ = _window_integrals(sol, stats, t_min, t_max)
+    c, a1 = dynamic_rating(b), reliability_factor(reliability)  # NumPy where known in Python
+    return _iso_life(sol, index, *edges, c, a1, b.life_exponent)
+
+
+def _window(sol: Solution, model: Mechanism, bearing, t_min, t_max):
+    """(index of the bearing joint, the window's edges [s]) of a life of ``sol`` after its
+    checks (`_window_integrals`; in NumPy where known in Python)."""
+    _window_integrals(sol, _fatigue(sol, model, bearing), t_min, t_max)  # its checks only
+    index = bearing_index(sol, bearing)
+    return index, checked_window(sol, t_min, t_max, sol.bearings[index].fatigue)
+
+
+@functools.partial(jax.jit, static_argnums=(1, 6))
+def _iso_life(sol: Solution, index, lo, hi, c, a1, exponent) -> RatingLife:
+    """`iso_life` of bearing joint ``index`` over [lo, hi] [s], C_r = ``c`` [N]."""
+    integrals, _, _ = _window_integrals(sol, sol.bearings[index].fatigue, lo, hi)
     revolutions = integrals[FAT_REVOLUTIONS]
-    c = dynamic_rating(b)
-    exponent = b.life_exponent
     p = FORCE_SCALE * _safe_power(_mean(integrals[FAT_FORCE_POWER], revolutions), 1.0 / exponent)
     n = 60.0 * revolutions / integrals[FAT_TIME]
     l10 = rating_life(c, p, exponent)
-    lnm = _reliability(reliability, l10, n)
-    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *lnm)
+    return RatingLife(c, p, l10, n, life_hours(l10, n), revolutions, *_reliability(a1, l10, n))
 
 
 def _window_integrals(sol: Solution, stats: FatigueStats, t_min, t_max):
@@ -206,13 +224,15 @@ def _window_integrals(sol: Solution, stats: FatigueStats, t_min, t_max):
     ok = reached(sol, t_max)  # first: a run that stopped short explains the rest
     inside, on_stops = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
     ok = ok & on_stops
+    concrete = is_concrete(ok, inside, stats.integrals, stats.inner, stats.outer)
+    xp = np if concrete else jnp  # the checks of a concrete window in NumPy: compile nothing
 
     def total(x):
-        return jnp.where(ok, jnp.sum(jnp.where(inside[:, None], x, 0.0), axis=0), jnp.nan)
+        return xp.where(ok, xp.sum(xp.where(inside[:, None], xp.asarray(x), 0.0), axis=0), xp.nan)
 
     integrals = total(stats.integrals)
     revolutions = integrals[FAT_REVOLUTIONS]
-    if is_concrete(revolutions) and float(revolutions) == 0.0:
+    if concrete and float(revolutions) == 0.0:
         raise ValueError(
             "the rings must turn relative to each other inside the window (relative_speed is 0 "
             "throughout): fatigue life is counted in relative revolutions."
@@ -321,7 +341,7 @@ def lp_life(
     """
     if rotating not in (None, "inner", "outer"):
         raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
-    stats = _fatigue(sol, model, bearing)
+    _fatigue(sol, model, bearing)  # the solution's checks first
     if points_per_ball is not None and points_per_ball != RING_POINTS_PER_BALL:
         raise ValueError(
             f"points_per_ball: the solution follows {RING_POINTS_PER_BALL} points of each ring "
@@ -338,8 +358,17 @@ def lp_life(
     z, d, dm = b.n_balls, b.ball_diameter, b.pitch_diameter
     q_ci, q_co = ball_race_load_ratings(
         z, d, dm, groove_inner, groove_outer, b_m=b_m, reduction=reduction
-    )
-    integrals, inner, outer = _window_integrals(sol, stats, t_min, t_max)
+    )  # NumPy where known in Python, as the factor a1
+    index, edges = _window(sol, model, bearing, t_min, t_max)
+    a1 = reliability_factor(reliability)
+    return _lp_life(sol, index, *edges, q_ci, q_co, a1, rotating)
+
+
+@functools.partial(jax.jit, static_argnums=(1, 7))
+def _lp_life(sol: Solution, index, lo, hi, q_ci, q_co, a1, rotating) -> LPLife:
+    """`lp_life` of bearing joint ``index`` over [lo, hi] [s] with the ring ratings Q_ci,
+    Q_co [N]."""
+    integrals, inner, outer = _window_integrals(sol, sol.bearings[index].fatigue, lo, hi)
     revolutions = integrals[FAT_REVOLUTIONS]
     if rotating is None:
         q_ei = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(inner, revolutions)), 1.0 / 3.0)
@@ -355,7 +384,7 @@ def lp_life(
     n = 60.0 * revolutions / integrals[FAT_TIME]
     return LPLife(
         q_ci, q_co, q_ei, q_eo, _safe_ratio(1.0, inv_i), _safe_ratio(1.0, inv_o), l10, n,
-        1e6 * l10 / (60.0 * n), *_reliability(reliability, l10, n),
+        1e6 * l10 / (60.0 * n), *_reliability(a1, l10, n),
     )  # fmt: skip
 
 

@@ -5,11 +5,13 @@ element beside the standard's permissible one."""
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .. import metrics
+from .. import _checks, metrics
 from ..laws import hertz
 from ..multibody.mechanism import Mechanism
 from ..params import RollerBearing
@@ -112,9 +114,27 @@ def static_safety(
     element diameter (ISO 76); impacts and shocks usually call for s_0 of 1.5–2 or more.
     """
     b = _solved_joint(sol, model, bearing).bearing
-    p0 = metrics.peak_bearing_force(sol, t_min, t_max, bearing=bearing)
-    q_max = metrics.peak_ball_load(sol, t_min, t_max, bearing=bearing)
-    c0 = static_rating(b)
+    metrics.bearing_index(sol, bearing)  # checked before the window, as the metrics do
+    edges = metrics.checked_window(sol, t_min, t_max)
+    grooves = _checks.as_floats((groove_inner, "groove_inner", "-"), (groove_outer, "groove_outer", "-"))
+    if not isinstance(b, RollerBearing):  # a roller's line contacts have no conformity
+        _checks.check(_groove_rules, *grooves)
+    return _static_safety(sol, b, bearing, *edges, static_rating(b), *grooves)
+
+
+def _groove_rules(xp, groove_inner, groove_outer):
+    """The raceway conformities of a ball's contacts (`hertz.curvature_sums`' rules)."""
+    return [
+        (groove <= 0.5, f"{name} (raceway groove curvature ratio f = r/D) must exceed 0.5", groove)
+        for name, groove in (("groove_inner", groove_inner), ("groove_outer", groove_outer))
+    ]
+
+
+@functools.partial(jax.jit, static_argnums=2)
+def _static_safety(sol, b, bearing, lo, hi, c0, groove_inner, groove_outer) -> StaticSafety:
+    """`static_safety` over [lo, hi] [s] with C_0r = ``c0`` [N]."""
+    p0 = metrics.peak_bearing_force(sol, lo, hi, bearing=bearing)
+    q_max = metrics.peak_ball_load(sol, lo, hi, bearing=bearing)
     stress = element_contact_stress(b, q_max, groove_inner, groove_outer)
     permissible = PERMISSIBLE_ROLLER if isinstance(b, RollerBearing) else PERMISSIBLE_BALL
     return StaticSafety(c0, p0, c0 / p0, q_max, stress, jnp.asarray(permissible, jnp.float64))
