@@ -145,12 +145,16 @@ class AbstractBearing(eqx.Module):
     @property
     def ball_diameter(self) -> jax.Array:
         """D = (d_o - d_i) / 2 [m], the rolling element's diameter."""
-        return _of_races(lambda inner, outer: 0.5 * (outer - inner), self)
+        return _checks.evaluate(
+            lambda xp, inner, outer: 0.5 * (outer - inner), self.inner_race_diameter, self.outer_race_diameter
+        )
 
     @property
     def pitch_diameter(self) -> jax.Array:
         """d_m = (d_i + d_o) / 2 [m]."""
-        return _of_races(lambda inner, outer: 0.5 * (outer + inner), self)
+        return _checks.evaluate(
+            lambda xp, inner, outer: 0.5 * (outer + inner), self.inner_race_diameter, self.outer_race_diameter
+        )
 
     def violations(self, xp, named=_checks.keyword):
         """Its rules (`jaxbearing._checks`) in the array module ``xp``, each field named by
@@ -181,15 +185,6 @@ class AbstractBearing(eqx.Module):
 
     def __check_init__(self):
         _checks.check_init(self)
-
-
-def _of_races(f, b):
-    """``f(d_i, d_o)`` [m] of the race diameters of the bearing ``b``: in NumPy where they are
-    known in Python (compiles nothing), as a float64 array."""
-    races = (b.inner_race_diameter, b.outer_race_diameter)
-    if _checks.is_concrete(*races):
-        return _checks.to_float64(f(*(np.asarray(r, np.float64) for r in races)))
-    return f(*races)
 
 
 def _race_diameters(pitch_diameter, element_diameter):

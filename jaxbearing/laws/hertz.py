@@ -57,17 +57,11 @@ from the Hamrock–Brewe estimate and differentiated implicitly (`jax.custom_jvp
 are exact and do not depend on the iteration history. Every function is pure, elementwise,
 float64, and safe under `jax.jit`, `jax.vmap` and `jax.grad`. Concrete inputs are validated with
 a `ValueError` that names the parameter, and evaluated in NumPy with the same steps, so that
-building a bearing compiles nothing; traced inputs are not checked here, and are evaluated as
-one jitted program per law.
+building a bearing compiles nothing (`_checks.evaluate`); traced inputs are not checked here, and
+are evaluated in `jax.numpy` inside the caller's program.
 """
 
 from __future__ import annotations
-
-import functools
-
-import jax
-import jax.numpy as jnp
-import numpy as np
 
 from .. import _checks
 from ._ellipse import elliptic, shape
@@ -91,24 +85,6 @@ __all__ = [
 PALMGREN_LINE = 3.84e-5
 
 
-def _law(fn):
-    """``fn(xp, *arrays)``, written once for an array module ``xp``, as a function of its
-    arrays: in NumPy where every one is concrete (a model built in a notebook compiles
-    nothing), else as one jitted `jax.numpy` program (traced, batched or differentiated through
-    the custom JVPs of `laws._ellipse`). ``law.generic`` is ``fn`` itself, for other laws to
-    compose."""
-    jitted = jax.jit(functools.partial(fn, jnp))
-
-    @functools.wraps(fn)
-    def law(*args):
-        if not _checks.is_concrete(*args):
-            return jitted(*args)
-        return jax.tree_util.tree_map(_checks.to_float64, fn(np, *(np.asarray(a) for a in args)))
-
-    law.generic = fn
-    return law
-
-
 def elliptic_integrals(m):
     """Complete elliptic integrals (K(m), E(m)) of parameter m = k^2, 0 <= m < 1.
 
@@ -117,12 +93,7 @@ def elliptic_integrals(m):
     number of steps: K = pi / (2 AGM(1, sqrt(1 - m))), E = K (1 - sum_n 2^(n-1) c_n^2).
     Derivatives in closed form (DLMF 19.4.1), finite at m = 0. Dimensionless.
     """
-    return _elliptic_integrals(_checks.as_float(m, "elliptic parameter m", "-"))
-
-
-@_law
-def _elliptic_integrals(xp, m):
-    return elliptic(xp, m)
+    return _checks.evaluate(elliptic, _checks.as_float(m, "elliptic parameter m", "-"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -130,10 +101,9 @@ def _elliptic_integrals(xp, m):
 # --------------------------------------------------------------------------------------------
 
 
-def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
+def groove_rules(xp, groove_inner, groove_outer):
+    """The rules of a ball's raceway conformities f_i, f_o (`jaxbearing._checks`)."""
     return [
-        _checks.positive(xp, "ball_diameter", ball_diameter, "m"),
-        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
         (
             xp.asarray(groove_inner) <= 0.5,
             "groove_inner (inner raceway groove curvature ratio f_i = r_i/D) must exceed 0.5",
@@ -144,11 +114,18 @@ def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_oute
             "groove_outer (outer raceway groove curvature ratio f_o = r_o/D) must exceed 0.5",
             groove_outer,
         ),
+    ]
+
+
+def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
+    return [
+        _checks.positive(xp, "ball_diameter", ball_diameter, "m"),
+        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
+        *groove_rules(xp, groove_inner, groove_outer),
         _checks.contact_angle_rule(xp, contact_angle),
     ]
 
 
-@_law
 def _curvature_sums(xp, d, dm, fi, fo, alpha):
     gamma = d * xp.cos(alpha) / dm
     gi = 2.0 * gamma / (1.0 - gamma)
@@ -184,7 +161,7 @@ def curvature_sums(ball_diameter, pitch_diameter, groove_inner, groove_outer, co
         (contact_angle, "contact_angle", "rad"),
     )
     _checks.check(_geometry_rules, *args)
-    return _curvature_sums(*args)
+    return _checks.evaluate(_curvature_sums, *args)
 
 
 def _curvature_difference_rules(xp, f):
@@ -192,7 +169,6 @@ def _curvature_difference_rules(xp, f):
     return [((v < 0.0) | (v >= 1.0), "curvature_difference F(rho) must lie in [0, 1)", f)]
 
 
-@_law
 def _ellipticity(xp, f):
     return xp.exp(shape(xp, f)[0])
 
@@ -206,10 +182,9 @@ def ellipticity(curvature_difference):
     """
     f = _checks.as_float(curvature_difference, "curvature_difference", "-")
     _checks.check(_curvature_difference_rules, f)
-    return _ellipticity(f)
+    return _checks.evaluate(_ellipticity, f)
 
 
-@_law
 def _dimensionless_deflection(xp, f):
     return shape(xp, f)[1]
 
@@ -223,7 +198,7 @@ def dimensionless_deflection(curvature_difference):
     """
     f = _checks.as_float(curvature_difference, "curvature_difference", "-")
     _checks.check(_curvature_difference_rules, f)
-    return _dimensionless_deflection(f)
+    return _checks.evaluate(_dimensionless_deflection, f)
 
 
 # --------------------------------------------------------------------------------------------
@@ -231,7 +206,6 @@ def dimensionless_deflection(curvature_difference):
 # --------------------------------------------------------------------------------------------
 
 
-@_law
 def _race_stiffness(xp, rho, f, e, nu):
     e_prime = e / (1.0 - nu * nu)
     delta_star = shape(xp, f)[1]
@@ -258,10 +232,9 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
         + _checks.material(xp, e, nu),
         rho, f, e, nu,
     )
-    return _race_stiffness(rho, f, e, nu)
+    return _checks.evaluate(_race_stiffness, rho, f, e, nu)
 
 
-@_law
 def _ball_stiffness(xp, ki, ko):
     return (ki ** (-2.0 / 3.0) + ko ** (-2.0 / 3.0)) ** -1.5
 
@@ -279,18 +252,17 @@ def ball_stiffness(k_inner, k_outer):
         ],
         ki, ko,
     )
-    return _ball_stiffness(ki, ko)
+    return _checks.evaluate(_ball_stiffness, ki, ko)
 
 
-@_law
 def _bearing_stiffness(xp, d, dm, fi, fo, e, nu, alpha):
-    rho_i, f_i, rho_o, f_o = _curvature_sums.generic(xp, d, dm, fi, fo, alpha)
+    rho_i, f_i, rho_o, f_o = _curvature_sums(xp, d, dm, fi, fo, alpha)
     # Both contacts in one (stacked) solve: half the program to compile.
-    k_io = _race_stiffness.generic(
+    k_io = _race_stiffness(
         xp, xp.stack([rho_i, rho_o]), xp.stack([f_i, f_o]), e[None, ...], nu[None, ...]
     )
     k_i, k_o = k_io[0], k_io[1]
-    return k_i, k_o, _ball_stiffness.generic(xp, k_i, k_o)
+    return k_i, k_o, _ball_stiffness(xp, k_i, k_o)
 
 
 def bearing_stiffness(
@@ -330,10 +302,9 @@ def bearing_stiffness(
         + _checks.material(xp, e, nu),
         d, dm, fi, fo, e, nu, alpha,
     )
-    return _bearing_stiffness(d, dm, fi, fo, e, nu, alpha)
+    return _checks.evaluate(_bearing_stiffness, d, dm, fi, fo, e, nu, alpha)
 
 
-@_law
 def _impact_stiffness(xp, rj, rk, ej, nj, ek, nk):
     h_j = (1.0 - nj * nj) / (xp.pi * ej)
     h_k = (1.0 - nk * nk) / (xp.pi * ek)
@@ -367,7 +338,7 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
         + _checks.material(xp, ek, nk, "youngs_k", "poisson_k"),
         rj, rk, ej, nj, ek, nk,
     )
-    return _impact_stiffness(rj, rk, ej, nj, ek, nk)
+    return _checks.evaluate(_impact_stiffness, rj, rk, ej, nj, ek, nk)
 
 
 # --------------------------------------------------------------------------------------------
@@ -375,7 +346,6 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
 # --------------------------------------------------------------------------------------------
 
 
-@_law
 def _roller_stiffness(xp, length):
     l_mm = 1e3 * length
     k_mm = (2.0 * PALMGREN_LINE) ** (-10.0 / 9.0) * l_mm ** (8.0 / 9.0)  # [N/mm^(10/9)]
@@ -396,10 +366,9 @@ def roller_stiffness(roller_length):
     """
     length = _checks.as_float(roller_length, "roller_length", "m")
     _checks.check(lambda xp, length: [_checks.positive(xp, "roller_length", length, "m")], length)
-    return _roller_stiffness(length)
+    return _checks.evaluate(_roller_stiffness, length)
 
 
-@_law
 def _roller_curvature_sums(xp, d, dm):
     gamma = d / dm
     return 2.0 / (d * (1.0 - gamma)), 2.0 / (d * (1.0 + gamma))
@@ -420,7 +389,7 @@ def roller_curvature_sums(roller_diameter, pitch_diameter):
         ],
         d, dm,
     )
-    return _roller_curvature_sums(d, dm)
+    return _checks.evaluate(_roller_curvature_sums, d, dm)
 
 
 # --------------------------------------------------------------------------------------------
@@ -428,7 +397,6 @@ def roller_curvature_sums(roller_diameter, pitch_diameter):
 # --------------------------------------------------------------------------------------------
 
 
-@_law
 def _point_contact_stress(xp, q, rho, f, e, nu):
     e_prime = e / (1.0 - nu * nu)
     log_kappa = shape(xp, f)[0]
@@ -462,10 +430,9 @@ def point_contact_stress(load, sum_rho, curvature_difference, youngs_modulus, po
         + _checks.material(xp, e, nu),
         q, rho, f, e, nu,
     )
-    return _point_contact_stress(q, rho, f, e, nu)
+    return _checks.evaluate(_point_contact_stress, q, rho, f, e, nu)
 
 
-@_law
 def _line_contact_stress(xp, q, length, rho, e, nu):
     return xp.sqrt(q * e / (1.0 - nu * nu) * rho / (2.0 * xp.pi * length))
 
@@ -495,4 +462,4 @@ def line_contact_stress(load, length, sum_rho, youngs_modulus, poisson_ratio):
         + _checks.material(xp, e, nu),
         q, length, rho, e, nu,
     )
-    return _line_contact_stress(q, length, rho, e, nu)
+    return _checks.evaluate(_line_contact_stress, q, length, rho, e, nu)

@@ -118,16 +118,8 @@ def static_safety(
     edges = metrics.checked_window(sol, t_min, t_max)
     grooves = _checks.as_floats((groove_inner, "groove_inner", "-"), (groove_outer, "groove_outer", "-"))
     if not isinstance(b, RollerBearing):  # a roller's line contacts have no conformity
-        _checks.check(_groove_rules, *grooves)
+        _checks.check(hertz.groove_rules, *grooves)
     return _static_safety(sol, b, bearing, *edges, static_rating(b), *grooves)
-
-
-def _groove_rules(xp, groove_inner, groove_outer):
-    """The raceway conformities of a ball's contacts (`hertz.curvature_sums`' rules)."""
-    return [
-        (groove <= 0.5, f"{name} (raceway groove curvature ratio f = r/D) must exceed 0.5", groove)
-        for name, groove in (("groove_inner", groove_inner), ("groove_outer", groove_outer))
-    ]
 
 
 @functools.partial(jax.jit, static_argnums=2)
