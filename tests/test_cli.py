@@ -31,6 +31,27 @@ ROOT = Path(__file__).resolve().parents[1]
 # ---------------------------------------------------------------------------------------------
 
 
+@jax.tree_util.register_pytree_node_class
+class Namespace(SimpleNamespace):
+    """A namespace that JAX sees as a pytree, as it sees a `Solution` (the metrics are jitted
+    functions of one): its array fields are leaves, the others (counts, indices) static."""
+
+    def tree_flatten(self):
+        def is_array(value):
+            leaves = jax.tree_util.tree_leaves(value)
+            return bool(leaves) and all(isinstance(x, (np.ndarray, np.generic, jax.Array)) for x in leaves)
+
+        items = sorted(vars(self).items())
+        dynamic = tuple(k for k, v in items if is_array(v))
+        static = tuple((k, v) for k, v in items if k not in dynamic)
+        return tuple(getattr(self, k) for k in dynamic), (dynamic, static)
+
+    @classmethod
+    def tree_unflatten(cls, aux, children):
+        dynamic, static = aux
+        return cls(**dict(zip(dynamic, children)), **dict(static))
+
+
 def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segments=6):
     """A Solution-like namespace for the xu2014 layout (4 bodies x 3 coordinates). ``onsets``:
     (slot, (time, approach speed[, end, peak force, peak time[, contact index]]))."""
@@ -50,7 +71,7 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         records[: len(record[:5]), slot] = record[:5]
         index[slot] = record[5] if len(record) > 5 else 0
     contact = np.zeros(T) if contact_force is None else np.asarray(contact_force, dtype=float)
-    return SimpleNamespace(
+    return Namespace(
         ts=ts,
         q=q,
         qd=qd,
@@ -61,14 +82,14 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         contact_force=contact,
         segments=fake_segments(ts, loads, np.hypot(force[:, 0], force[:, 1]), contact),
         penetration=np.zeros(T),
-        bearings=(SimpleNamespace(ball_loads=loads, force=force, cage_angle=np.zeros(T)),),
+        bearings=(Namespace(ball_loads=loads, force=force, cage_angle=np.zeros(T)),),
         n_bearings=1,
         n_contacts=1,
         contact_forces=contact[:, None],
         targets=(9,),
         t1=ts[-1],
         drift=np.linspace(0.0, 1e-11, T),
-        contacts=SimpleNamespace(
+        contacts=Namespace(
             time=records[0], approach_speed=records[1], index=index, valid=index >= 0,
             end=records[2], peak_force=records[3], peak_time=records[4],
         ),
@@ -93,7 +114,7 @@ def fake_segments(ts, loads, bearing, contact):
         rows.append([x.max() for x in series] + [0.0] * 12)
         times.append([ts[inside[np.argmax(x)]] for x in series] + [a] * 12)
         at_peak.append(loads[inside[np.argmax(largest)]])
-    return SimpleNamespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
+    return Namespace(t_start=edges[:-1], t_end=edges[1:], peaks=np.array(rows),
                            valid=np.ones(len(rows), bool), peak_times=np.array(times),
                            peak_loads=(np.array(at_peak),))
 
