@@ -14,8 +14,6 @@ from typing import ClassVar, Literal
 
 import equinox as eqx
 import jax
-import jax.numpy as jnp
-import numpy as np
 
 from . import _checks
 from .laws import hertz
@@ -189,9 +187,7 @@ class AbstractBearing(eqx.Module):
 
 def _race_diameters(pitch_diameter, element_diameter):
     """(d_i, d_o) = (d_m - D, d_m + D) [m]."""
-    xp = np if _checks.is_concrete(pitch_diameter, element_diameter) else jnp  # NumPy compiles nothing
-    dm, d = xp.asarray(pitch_diameter, xp.float64), xp.asarray(element_diameter, xp.float64)
-    return dm - d, dm + d
+    return _checks.evaluate(lambda xp, dm, d: (dm - d, dm + d), pitch_diameter, element_diameter)
 
 
 def _designation(catalogue, designation):
