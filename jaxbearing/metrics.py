@@ -376,22 +376,21 @@ def _inside(sol: Solution, t_min, t_max):
     has a value: both edges are stops (or outside the solved span) and the run reached its end
     (`reached`). SimulationError or ValueError when not and that is known in Python (a run
     that stopped short first: what else is wrong with the window follows from that)."""
-    return _within(sol, sol.segments, t_min, t_max)
-
-
-def _within(sol: Solution, stats, t_min, t_max):
-    """`_inside` of the intervals of ``stats`` (`SegmentStats`, `FatigueStats`)."""
     ok = reached(sol, t_max)
-    inside, on_stops = intervals_inside(stats, window_start(sol, t_min), t_max, "stop intervals")
+    inside, on_stops = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
     return inside, ok & on_stops
 
 
-def checked_window(sol: Solution, t_min, t_max, stats=None):
+def checked_window(sol: Solution, t_min, t_max):
+    """`window_edges` for a jitted metric of ``sol``, after the window's checks (`_inside`),
+    which run in NumPy where ``sol`` and the window are known in Python."""
+    _inside(sol, t_min, t_max)
+    return window_edges(sol, t_min, t_max)
+
+
+def window_edges(sol: Solution, t_min, t_max):
     """The window's edges (lo, hi) [s] as float64 scalars (``"model"``: the model's
-    ``window_start``; None: -inf, +inf), for a jitted metric of ``sol``, after the window's
-    checks on the intervals of ``stats`` (None: ``sol.segments``), which run in NumPy where
-    ``sol`` and the window are known in Python (SimulationError, ValueError: `_inside`)."""
-    _within(sol, sol.segments if stats is None else stats, t_min, t_max)
+    ``window_start``; None: -inf, +inf)."""
     lo = window_start(sol, t_min)
     return (
         _window_edge("t_min", -np.inf if lo is None else lo, "a time"),

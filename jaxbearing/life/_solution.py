@@ -19,11 +19,11 @@ from .._checks import is_concrete
 from ..metrics import (
     AbstractMetric,
     bearing_index,
-    checked_window,
     element_index,
     finite_numbers,
     intervals_inside,
     reached,
+    window_edges,
     window_start,
 )
 from ..multibody.mechanism import Mechanism
@@ -201,8 +201,7 @@ def _window(sol: Solution, model: Mechanism, bearing, t_min, t_max):
     """(index of the bearing joint, the window's edges [s]) of a life of ``sol`` after its
     checks (`_window_integrals`; in NumPy where known in Python)."""
     _window_integrals(sol, _fatigue(sol, model, bearing), t_min, t_max)  # its checks only
-    index = bearing_index(sol, bearing)
-    return index, checked_window(sol, t_min, t_max, sol.bearings[index].fatigue)
+    return bearing_index(sol, bearing), window_edges(sol, t_min, t_max)
 
 
 @functools.partial(jax.jit, static_argnums=(1, 6))
