@@ -108,7 +108,7 @@ def main(out, t1, sweeps, solver=None, one_loop=False):
           f"(accepted and rejected) = {1e6 * wall / steps:.0f} us a step; {len(events) / steps:.0f} kernels a step")
     _summary(events, wall)
     # the segment slots of the benchmark's full-span sweep, so that a shorter span keeps its loops
-    max_segments = jb.solve.default_max_segments(model, 0.0, T1)
+    max_segments = jb.simulation.default_max_segments(model, 0.0, T1)
     for points in sweeps:
         n = int(round(points**0.5))
         grid = {

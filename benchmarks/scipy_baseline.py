@@ -91,7 +91,7 @@ class Params:
         from jaxbearing.multibody import BearingJoint, CircleContact, Driver, Revolute, SpringDamper
 
         ground_pin, driver, rod_pin = model.joints[:3]
-        bearing_joint, spring = model.forces
+        bearing_joint, spring, *contacts = model.forces
         if not (
             isinstance(ground_pin, Revolute)
             and isinstance(driver, Driver)
@@ -103,9 +103,9 @@ class Params:
         b = bearing_joint.bearing
         if b.cage != "kinematic" or b.ball_force != "paper":
             raise ValueError("The baseline has the kinematic cage and the paper's ball force only.")
-        contact = bool(model.contacts)
+        contact = bool(contacts)
         if contact:
-            (c,) = model.contacts
+            (c,) = contacts
             if not isinstance(c, CircleContact) or float(c.impact.friction) != 0.0:
                 raise ValueError("The baseline implements the paper's frictionless circle contact.")
         f = float

@@ -48,6 +48,10 @@ if case == "paper":
     model = jb.cases.xu2014(impact=True)
 elif case == "one_bearing":
     model = jb.cases.xu2014(impact=False)
+elif case == "plain_bearing":  # the crank pin a dry plain bearing (benchmarks/clearance_cost.py)
+    journal = jb.JournalBearing.from_geometry(radius=12.5e-3, clearance=20e-6, length=12e-3,
+                                              restitution=0.9, friction=0.1)
+    model = jb.cases.xu2014(impact=False, bearing=journal)
 else:  # the ground-crank pin (joint 0) replaced by a second bearing
     from jaxbearing.multibody import GROUND, BearingJoint
     m = jb.cases.xu2014(impact=False)
@@ -57,15 +61,16 @@ else:  # the ground-crank pin (joint 0) replaced by a second bearing
 ts = jnp.linspace(0.0, 0.2, 2001)
 
 def run():
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     sol = jb.simulate(model, 0.2, ts)
     sol.q.block_until_ready()
-    return time.perf_counter() - t, int(sol.num_steps), int(sol.num_rejected_steps)
+    return time.perf_counter() - t, int(sol.num_steps), int(sol.num_rejected_steps), time.process_time() - cpu
 
-first, steps, rejected = run()
-print(json.dumps({"first": first, "steps": steps, "rejected": rejected, "file": jb.__file__}), flush=True)
+first, steps, rejected, first_cpu = run()
+print(json.dumps({"first": first, "first_cpu": first_cpu, "steps": steps, "rejected": rejected,
+                  "file": jb.__file__}), flush=True)
 for line in sys.stdin:
-    wall, steps, rejected = run()
+    wall, steps, rejected, _ = run()
     print(json.dumps({"wall": wall, "steps": steps, "rejected": rejected}), flush=True)
 """
 

@@ -19,12 +19,12 @@ from ._process import apply_compilation_cache, apply_loop_kernels
 apply_loop_kernels()  # before anything that may start JAX's backends (jaxbearing._process)
 apply_compilation_cache()
 
-from . import cases, laws, life, metrics, multibody, paths
-from .multibody import Mechanism
+from . import cases, laws, life, metrics, multibody, paths, report
+from .multibody import JournalBearing, Mechanism
 from .params import AbstractBearing, BallBearing, Impact, RollerBearing
-from .solution import RESULTS, Contacts, SimulationError, Solution
-from .solve import (
-    SolveOptions,
+from ._options import SolveOptions
+from .solution import RESULTS, Contacts, DriftWarning, SimulationError, Solution
+from .simulation import (
     default_controller,
     default_max_onsets,
     default_max_segments,
@@ -44,7 +44,9 @@ __all__ = [
     "AbstractBearing",
     "BallBearing",
     "Contacts",
+    "DriftWarning",
     "Impact",
+    "JournalBearing",
     "Mechanism",
     "RollerBearing",
     "SimulationError",
@@ -64,6 +66,7 @@ __all__ = [
     "metrics",
     "multibody",
     "paths",
+    "report",
     "sensitivity",
     "simulate",
     "simulate_one_loop",

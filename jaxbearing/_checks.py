@@ -19,17 +19,16 @@ array module ``xp`` as their first argument (the builders below, each parameter 
   (`raise_broken`), nothing evaluated again; under your own `jax.jit` or `jax.vmap` one
   `eqx.branched_error_if` raises it (`enforce`) when ``throw=True``.
 
-The arguments of a solve (span, controller and tolerances, output times, counts, window edges)
-are checked here as well (at the end: `check_count`, `checked_span` and what follows), with the
-rules a run must meet (`start_rules`), for `simulate`, `simulate_one_loop` and `sweep` alike.
+This module holds the machinery and the generic rules (positive, finite, in an interval);
+each parameter's own rules live with it (the bearing geometry's and materials' in
+`jaxbearing.laws.rules`), the solve's arguments' in `jaxbearing.solve._arguments`, the rules a
+run of a mechanism must meet in `jaxbearing.simulation`.
 """
 from __future__ import annotations
 
-import numbers
 from collections.abc import Iterable
 from typing import NamedTuple
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -133,14 +132,16 @@ def check(rules_of, *values) -> None:
 def first_broken(rules: Iterable[Rule]) -> tuple[jax.Array, jax.Array]:
     """In `jax.numpy`, under jit: the index of the first broken rule of ``rules`` (-1 where
     none is) and one number of its value: the first element that breaks the rule, or the
-    value's first element where the rule is one condition on all of them (the output times)."""
+    value's first element where the rule is one condition on all of them (the output times).
+    The value carries no derivative: under `jax.grad` or `jax.jacfwd` it comes back a plain
+    number that the error message can show (`raise_broken`)."""
     rules = list(rules)
     if not rules:
         return jnp.asarray(-1, jnp.int32), jnp.asarray(jnp.nan)
     wrong = jnp.stack([jnp.any(jnp.asarray(is_wrong)) for is_wrong, _, _ in rules])
     index = jnp.where(jnp.any(wrong), jnp.argmax(wrong), -1).astype(jnp.int32)
     values = jnp.stack([_culprit(is_wrong, value) for is_wrong, _, value in rules])
-    return index, values[jnp.maximum(index, 0)]
+    return index, jax.lax.stop_gradient(values[jnp.maximum(index, 0)])
 
 
 def _culprit(is_wrong, value) -> jax.Array:
@@ -259,218 +260,3 @@ def in_open_interval(xp, name: str, value, low: float, high: float):
 def in_half_open_interval(xp, name: str, value, low: float, high: float):
     v = xp.asarray(value)
     return ((v <= low) | (v > high), f"{name} must lie in ({low}, {high}]", value)
-
-
-def material(xp, youngs_modulus, poisson_ratio, youngs_name="youngs_modulus", poisson_name="poisson_ratio"):
-    """Rules of an elastic material: E > 0 [Pa], nu in (0, 0.5), named as given."""
-    return [
-        positive(xp, youngs_name, youngs_modulus, "Pa"),
-        in_open_interval(xp, poisson_name, poisson_ratio, 0.0, 0.5),
-    ]
-
-
-def ball_count(xp, n_balls, name="n_balls"):
-    """A bearing has an integer number of rolling elements, at least 3 (``name``: the argument
-    as the user types it, ``n_balls`` or ``n_rollers``)."""
-    z = xp.asarray(n_balls)
-    return ((z < 3) | (z != xp.round(z)), f"{name} must be an integer of at least 3", n_balls)
-
-
-def balls_fit(xp, n_balls, ball_diameter, pitch_diameter, element="ball"):
-    """The rolling elements fit around the pitch circle without overlapping: neighbours'
-    centres lie d_m sin(pi/Z) apart, so D < d_m sin(pi/Z). ``element``: "ball" or "roller",
-    as the arguments are named (``ball_diameter``, ``n_balls`` or ``roller_diameter``,
-    ``n_rollers``)."""
-    z, d, dm = (xp.asarray(v) for v in (n_balls, ball_diameter, pitch_diameter))
-    return (
-        d >= dm * xp.sin(xp.pi / xp.maximum(z, 1.0)),
-        (
-            f"{element}_diameter must be below pitch_diameter * sin(pi / n_{element}s), or the "
-            f"{element}s overlap on the pitch circle [m]"
-        ),
-        ball_diameter,
-    )
-
-
-def pitch_exceeds_ball(xp, pitch_diameter, ball_diameter):
-    """The pitch circle is wider than a ball: d_m > D [m]."""
-    return (
-        xp.asarray(pitch_diameter) <= xp.asarray(ball_diameter),
-        "pitch_diameter must exceed ball_diameter [m]",
-        pitch_diameter,
-    )
-
-
-def contact_angle_rule(xp, contact_angle):
-    """A bearing's contact angle alpha lies in [0, pi/2) [rad]."""
-    alpha = xp.asarray(contact_angle)
-    return ((alpha < 0.0) | (alpha >= 0.5 * xp.pi), "contact_angle must lie in [0, pi/2) [rad]", contact_angle)
-
-
-# the arguments of a solve (`jaxbearing.simulate`, `simulate_one_loop`, `sweep`)
-
-
-def check_count(name: str, value, optional: bool = False) -> None:
-    """A `ValueError` unless ``value`` (the argument ``name``: ``max_steps``, a `SolveOptions`
-    field) is an integer of at least 1, or None where ``optional``."""
-    if optional and value is None:
-        return
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        allowed = "None or an integer" if optional else "an integer"
-        raise ValueError(f"{name} must be {allowed} of at least 1; got {value!r}.")
-
-
-def checked_span(t0, t1):
-    """t0 and t1 [s] as float64 arrays: a `ValueError` now if they are concrete and not finite
-    or t1 <= t0, an error at run time if traced and not finite (the solve checks t1 > t0:
-    `start_rules`)."""
-    for name, t in (("t0", t0), ("t1", t1)):
-        if isinstance(t, (str, bytes, bool)):
-            raise ValueError(f"{name} must be a number [s]; got {t!r}.")
-    if is_concrete(t0, t1):  # known in Python (a number stays known even under a caller's trace)
-        for name, t in (("t0", t0), ("t1", t1)):
-            value = np.asarray(t, np.float64)
-            if value.ndim or not np.isfinite(value):
-                raise ValueError(f"{name} must be a finite number [s]; got {name} = {value}.")
-        if not np.asarray(t1, np.float64) > np.asarray(t0, np.float64):
-            raise ValueError(f"t1 must be greater than t0 = {float(t0)} s; got t1 = {float(t1)} s.")
-        return to_float64(t0), to_float64(t1)
-    t0, t1 = jnp.asarray(t0, jnp.float64), jnp.asarray(t1, jnp.float64)
-    finite = jnp.isfinite(t0) & jnp.isfinite(t1)
-    return t0, eqx.error_if(t1, ~finite, "t0 and t1 must be finite [s]")
-
-
-def checked_tolerances(rtol, atol):
-    """rtol and atol as float64 arrays (so that other tolerances reuse the compiled solve); a
-    `ValueError` now if they are not numbers, or concrete and not finite, negative, or both
-    zero."""
-    for name, value in (("rtol", rtol), ("atol", atol)):
-        if value is None or isinstance(value, (str, bytes, bool)):
-            raise ValueError(f"{name} must be a finite number >= 0; got {name} = {value!r}.")
-    rtol, atol = to_float64(rtol), to_float64(atol)
-    if is_concrete(rtol, atol):
-        values = {"rtol": np.asarray(rtol), "atol": np.asarray(atol)}
-        for name, x in values.items():
-            if x.ndim or not (np.isfinite(x) and x >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0; got {name} = {x}.")
-        if not values["rtol"] < 1:
-            raise ValueError(f"rtol must be below 1 (a relative error); got rtol = {values['rtol']}.")
-        if not values["rtol"] + values["atol"] > 0:
-            raise ValueError("rtol and atol must not both be zero: the step control needs one.")
-    return rtol, atol
-
-
-def checked_controller(controller):
-    """``controller`` (a diffrax step-size controller; a `TypeError` for anything else) with its
-    rtol and atol, where it has them, checked and made float64 arrays, so that other tolerances
-    reuse the compiled solve."""
-    if not isinstance(controller, diffrax.AbstractStepSizeController):
-        raise TypeError(
-            "stepsize_controller must be a diffrax step-size controller (e.g. "
-            f"jaxbearing.default_controller(rtol, atol)); got {type(controller).__name__}."
-        )
-    if isinstance(controller, diffrax.StepTo):
-        raise ValueError(
-            "stepsize_controller=diffrax.StepTo is not supported: its grid of step ends cannot "
-            "survive the restarts of the solve at its events (contact onsets and separations, ball "
-            "engagements). simulate supports diffrax.PIDController (e.g. "
-            "jaxbearing.default_controller(rtol, atol)) and diffrax.ConstantStepSize() with its "
-            "step in jaxbearing.SolveOptions(dt0=...); outputs at chosen times come from ts."
-        )
-    if isinstance(controller, diffrax.AbstractAdaptiveStepSizeController):
-        tolerances = checked_tolerances(controller.rtol, controller.atol)
-        controller = eqx.tree_at(lambda c: (c.rtol, c.atol), controller, tolerances)
-    return controller
-
-
-def checked_dt0(dt0, controller, t0, t1):
-    """The first step [s] (``SolveOptions.dt0``) as a float64 array, or None; a `ValueError` now
-    where it is None under a `diffrax.ConstantStepSize`, not a number, or concrete and not
-    finite, not positive or not below t1 - t0 (traced: an error at run time)."""
-    if dt0 is None:
-        if isinstance(controller, diffrax.ConstantStepSize):
-            raise ValueError(
-                "stepsize_controller=diffrax.ConstantStepSize() needs its step: set it in "
-                "jaxbearing.SolveOptions(dt0=...) [s], e.g. simulate(..., "
-                "options=jaxbearing.SolveOptions(dt0=1e-6))."
-            )
-        return None
-    if isinstance(dt0, (str, bytes, bool)) or np.ndim(dt0) != 0:
-        raise ValueError(f"dt0 must be one number, a step [s]; got {dt0!r}.")
-    dt0 = to_float64(dt0)
-    if not is_concrete(dt0, t0, t1):
-        wrong = ~(jnp.isfinite(dt0) & (dt0 > 0) & (dt0 < t1 - t0))
-        return eqx.error_if(dt0, wrong, "dt0 must be finite, > 0 and below t1 - t0 [s]")
-    span = float(t1) - float(t0)
-    if not (np.isfinite(dt0) and 0 < float(dt0) < span):
-        raise ValueError(
-            f"dt0 must be a finite step [s] above 0 and below t1 - t0 = {span:.6g} s; got "
-            f"dt0 = {float(dt0)!r}."
-        )
-    return dt0
-
-
-def checked_ts(ts, t0, t1):
-    """The output times as a float64 array; a `ValueError` now if they are not 1-D, or, when
-    concrete, not finite, decreasing somewhere or outside [t0, t1] (traced: `start_rules`)."""
-    single = getattr(ts, "dtype", None) == np.float32
-    if not isinstance(ts, jax.Array) and np.asarray(ts).dtype.kind not in "iuf":
-        raise ValueError(f"ts must be an array of numbers [s]; got {ts!r}.")
-    ts = jnp.asarray(ts, jnp.float64)
-    if ts.ndim != 1 or ts.shape[0] == 0:
-        raise ValueError(f"ts must be a 1-D array of at least one output time [s]; got shape {ts.shape}.")
-    if not is_concrete(ts, t0, t1):
-        return ts
-    t = np.asarray(ts)
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise ValueError(f"ts must be finite [s]; got ts[{bad[0]}] = {t[bad[0]]}.")
-    back = np.flatnonzero(t[1:] < t[:-1])
-    if back.size:
-        i = back[0]
-        raise ValueError(
-            f"ts must be increasing (equal neighbours allowed) [s]; got ts[{i + 1}] = {t[i + 1]:.6g} "
-            f"after ts[{i}] = {t[i]:.6g}."
-        )
-    out = np.flatnonzero((t < float(t0)) | (t > float(t1)))
-    if out.size:
-        i = out[0]
-        hint = " (float32 times round off t0 and t1: give ts in float64)" if single else ""
-        raise ValueError(
-            f"ts must lie within [t0, t1] = [{float(t0)!r}, {float(t1)!r}] s; got ts[{i}] = "
-            f"{float(t[i])!r}{hint}."
-        )
-    return ts
-
-
-def window_stops(window_edges, window_start=None, more=()) -> jax.Array:
-    """The stops a solve adds to t1: the model's ``window_start`` (unless None), the
-    ``window_edges`` [s] and ``more`` (the records' window edges); a `ValueError` unless
-    ``window_edges`` is a tuple (or list) of finite numbers."""
-    wrong = ValueError(
-        f"window_edges must be a tuple of finite times [s] (e.g. (0.09,)); got {window_edges!r}."
-    )
-    if not isinstance(window_edges, (tuple, list)) or any(isinstance(e, (bool, str)) for e in window_edges):
-        raise wrong
-    start = () if window_start is None else (window_start,)
-    try:
-        stops = to_float64(start + tuple(window_edges) + tuple(more))
-    except (TypeError, ValueError):
-        raise wrong from None
-    if stops.ndim != 1 or (is_concrete(stops) and not np.all(np.isfinite(stops))):
-        raise wrong
-    return stops
-
-
-def start_rules(model, t0, t1, ts=None) -> list:
-    """Every rule a run must meet, in `jax.numpy` (inside the compiled solve: `first_broken`):
-    the model's at ``t0`` (named by their paths in the model), t1 > t0, and the output times
-    ``ts`` finite, increasing and within [t0, t1]."""
-    rules = model.violations(jnp, t0)
-    rules.append((t1 <= t0, "t1 must be greater than t0 [s]", t1))
-    if ts is not None:
-        rules.append(
-            ((ts[0] < t0) | (ts[-1] > t1) | jnp.any(ts[1:] < ts[:-1]) | jnp.any(~jnp.isfinite(ts)),
-             "ts must be finite, increasing and lie within [t0, t1]", ts)
-        )
-    return rules

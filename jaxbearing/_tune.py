@@ -45,7 +45,7 @@ import optax
 from . import _checks, paths as _paths
 from .metrics import AbstractMetric, as_metric, solve_options
 from .solution import RESULTS, SimulationError
-from .solve import default_controller, simulate
+from .simulation import default_controller, simulate
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol

@@ -4,49 +4,51 @@ case starts it after the start-up transient in which the rod falls onto the race
 None: the whole span) to the end of the solve; ``t_min=None`` starts it with the solve.
 
 They are computed from the solution itself, not from its output times: `simulate` records, per
-interval between its stops, the peaks and integrals over every accepted solver step and the
-step's interpolant (`SegmentStats`), and a metric combines the intervals inside its window. So a
-metric has the same value whatever ``ts`` the simulation was asked for. A window's edges must be
-stops: t0, the model's ``window_start`` and t1 always are, and ``SolveOptions.window_edges``
-adds others. An edge that is not raises ValueError, or, under `jax.jit` / `jax.vmap` where that
-cannot be checked in Python, makes the metric NaN (`jaxbearing.sweep` marks such a member failed
-with the reason, `jaxbearing.sensitivity` and `jaxbearing.tune` raise it). No warning is issued
-from inside a compiled program: its host callback would keep the program out of JAX's
-persistent compilation cache.
+interval between its stops, the peaks and integrals that each force element declares over
+every accepted solver step and the step's interpolant (`solution.ElementRecords`), and a metric
+combines the intervals inside its window. So a metric has the same value whatever ``ts`` the
+simulation was asked for. A window's edges must be stops: t0, the model's ``window_start`` and
+t1 always are, and ``SolveOptions.window_edges`` adds others. An edge that is not raises
+ValueError, or, under `jax.jit` / `jax.vmap` where that cannot be checked in Python, makes the
+metric NaN (`jaxbearing.sweep` marks such a member failed with the reason,
+`jaxbearing.sensitivity` and `jaxbearing.tune` raise it). No warning is issued from inside a
+compiled program: its host callback would keep the program out of JAX's persistent
+compilation cache.
 
-All are pure functions of the solution arrays, so they run under `jax.jit`, `jax.vmap` and the
-differentiation transforms:
+Metrics of one kind for every element (final Modules, their fields typed and checked):
 
-- the exact peaks (``peak_*``, ``max_*``) are maxima of each step's interpolant (its end, 3
-  Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of a
-  parabola through them, the interpolant's maximum to third order; `SegmentStats`):
-  differentiable almost everywhere, with the derivative of the point that attains the maximum,
-  which jumps when another point takes over; fine for sensitivities at one design point, poor
-  for optimisation;
-- `peak_time` and `peak_ball` say when an exact peak is attained and which ball carries the
-  peak ball load, `loads_at_peak` every ball's load then: the earliest recorded point that
-  attains the peak (no derivative of the time);
-- the smooth versions (``smooth_*``) replace the maximum by the power mean
-  (1/T integral x^p dt)^(1/p) over the window of duration T, which lies below the maximum,
-  approaches it as p grows, and is differentiable everywhere: use them as objectives for
-  `jax.grad` and optax. The RMS bearing force is smooth already. Their integrals are 3-point
-  Gauss–Legendre quadratures of each step's interpolant (exact for integrands of degree <= 5
-  over a step), recorded at p = `solution.POWER` (16).
+- `ElementPeak`: the exact peak of one of an element's peak records (`AbstractForceElement.
+  peak_records`), the maximum of each step's interpolant (its end, 3 Gauss–Legendre points
+  and, where the step may hold a new peak between them, the vertex of a parabola through
+  them, the interpolant's maximum to third order): differentiable almost everywhere, with the
+  derivative of the point that attains the maximum, which jumps when another point takes
+  over; fine for sensitivities at one design point, poor for optimisation;
+- `PowerMean`: the power mean (scale (1/T integral (x/scale)^p dt)^(1/p)) of one of an
+  element's power integrals over the window of duration T: the RMS (p = 2), or a smooth,
+  differentiable stand-in for a peak (p = `solution.POWER`, below the maximum, closer as p
+  grows): use those as objectives for `jax.grad` and optax;
+- `CoordinatePeak`: the exact peak of a coordinate's displacement |q_c - q0_c|;
+- `PeakTime`, `AtPeak`, `PeakIndex`: when an exact peak is attained (the earliest recorded
+  point that attains it; no derivative of the time), the array its record carries then (a
+  bearing's element loads), and which entry of it is the largest;
+- `Peak` and `Mean`: metrics of your own, ``fn(model, x)`` of each recorded instant;
+- `MaxDrift`.
 
-Forces in N, displacements in m.
+An element is chosen within a view of the model's force elements: ``view="bearings"`` (the
+bearing joints, ``bearing=i``), ``"contacts"`` (the impact contacts, ``contact=i``) or
+``"elements"`` (all of them, ``element=i`` or a name); None: the only one. The built-ins are
+presets of these (`peak_ball_load` is ``ElementPeak("max_element_load", view="bearings")``),
+called as functions (``peak_ball_load(sol, t_min, t_max, bearing=1)``) or set with `replace`
+(``peak_ball_load.replace(bearing=1)``, what a sweep takes). A plain function of a `Solution`
+is a metric that reads the output samples (`as_metric`); `jaxbearing.life.metric` is the
+bearing life, which reads the model too. `jaxbearing.sweep`, `jaxbearing.sensitivity` and
+`converged` ask a metric what it needs of the solve (`AbstractMetric.records`, ``edges``,
+``reads_samples``, ``reads_fatigue``) and its ``value(sol, model)``.
 
-A window that holds none of the solved span (e.g. a run that ends before the default t_min)
-has no value: with a concrete solution and window the metric raises a `ValueError` naming
-``t_min`` and the span; traced (under jit or vmap, in sweeps) it is NaN, as above.
-
-Every metric is an `AbstractMetric`: the built-ins are instances of `BuiltinMetric` (called as
-functions, ``peak_ball_load(sol, t_min, t_max, bearing=1)``; ``peak_ball_load.replace(bearing=1)``
-is the metric with other defaults), `Peak` and `Mean` are metrics of your own that the solve
-records, and `jaxbearing.life.metric` is the bearing life, which reads the model too. A plain
-function of a `Solution` is a metric that reads the output samples (`as_metric`).
-`jaxbearing.sweep`, `jaxbearing.sensitivity` and `converged` ask a metric what it needs of the
-solve (`AbstractMetric.records`, ``edges``, ``reads_samples``, ``reads_fatigue``) and its
-``value(sol, model)``.
+Forces in N, displacements in m. A window that holds none of the solved span (e.g. a run that
+ends before the default t_min) has no value: with a concrete solution and window the metric
+raises a `ValueError` naming ``t_min`` and the span; traced (under jit or vmap, in sweeps) it
+is NaN, as above.
 
 `converged` says whether a metric is a result at all: it simulates the model at several solver
 tolerances and compares the metric's values (docs/metrics.md).
@@ -57,7 +59,6 @@ from __future__ import annotations
 import abc
 import dataclasses
 import functools
-import inspect
 import itertools
 import math
 import numbers
@@ -70,26 +71,18 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._checks import is_concrete, to_float64
-from .solution import (
-    AbstractRecord,
-    FORCE_SCALE,
-    INT_TIME,
-    POWER,
-    RESULTS,
-    SimulationError,
-    Solution,
-    integral_column,
-    peak_column,
-)
+from ._options import SolveOptions, declaring
+from .simulation import default_controller, simulate
+from .solution import EDGE_TOLERANCE, RESULTS, AbstractRecord, SimulationError, Solution
 
 
 class AbstractMetric(eqx.Module):
     """A scalar metric of a `Solution`, the one kind `jaxbearing.sweep`, `jaxbearing.sensitivity`
     and `converged` take: they ask it what the solve must record (`records`, `edges`, the flags
     ``reads_samples``: it reads the output samples; ``reads_fatigue``: it reads the bearings'
-    `solution.FatigueStats`), then its `value`, and name it by its `label`. Hashable and
-    compared by value (static fields only). A metric that needs the model (its parameters
-    seen by derivatives and sweeps) is a subclass whose `value` reads ``model``."""
+    fatigue integrals), then its `value`, and name it by its `label`. Hashable and compared by
+    value (static fields only). A metric that needs the model (its parameters seen by
+    derivatives and sweeps) is a subclass whose `value` reads ``model``."""
 
     reads_samples: eqx.AbstractClassVar[bool]
     reads_fatigue: eqx.AbstractClassVar[bool]
@@ -129,115 +122,6 @@ def _time(name, value, allowed, *, model=False):
     if not finite_numbers(value):
         raise ValueError(f"{name} must be {allowed}; got {value!r}.")
     return float(value)
-
-
-def _index(name, value):
-    """``value`` of the field ``name`` checked as None or an index (an integer >= 0); the
-    model's count is checked when the metric is computed."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-        raise ValueError(
-            f"{name} must be None (the only one) or an index, an integer >= 0; got {value!r}."
-        )
-    return int(value)
-
-
-def _field(name, value):
-    """A field of a `BuiltinMetric` checked (`BuiltinMetric.replace`)."""
-    if name == "t_min":
-        start = 'a time [s], "model" (the model\'s window_start) or None (from t0)'
-        return _time(name, value, start, model=True)
-    if name == "t_max":
-        return _time(name, value, "a time [s] or None (to the end of the run)")
-    if name == "p":
-        if not finite_numbers(value) or float(value) != POWER:
-            raise ValueError(f"p must be {POWER}, the order the solution records; got {value!r}.")
-        return float(value)
-    if name == "metric":
-        return _exact_peak(value)
-    return _index(name, value)  # bearing, contact, coordinate
-
-
-def _shown(value) -> str:
-    """A field's value as a label shows it."""
-    return value.label if isinstance(value, AbstractMetric) else repr(value)
-
-
-class BuiltinMetric(AbstractMetric):
-    """One of jaxbearing's metrics (`peak_ball_load`, `STANDARD`, `SMOOTH`, ...): a function of a
-    `Solution` whose other arguments (``t_min``, ``t_max``, ``bearing``, ``contact``,
-    ``coordinate``, ``p``, ``metric``) are its fields. Calling it calls the function with the
-    fields as the defaults of the call; `replace` returns the metric with other fields, which is
-    what a sweep, `jaxbearing.sensitivity` or `converged` takes:
-    ``peak_ball_load.replace(bearing=1, t_min=0.05)``. Fields are readable as attributes
-    (``peak_ball_load.t_min``). It reads the solve's records, not the output samples."""
-
-    function: Callable = eqx.field(static=True)
-    arguments: tuple = eqx.field(static=True)  # ((name, value), ...) in the call's order
-    reads_samples: ClassVar[bool] = False
-    reads_fatigue: ClassVar[bool] = False
-
-    def __call__(self, sol: Solution, *args, **kwargs) -> jax.Array:
-        """The metric of ``sol``; arguments not given take the fields' values."""
-        given = inspect.signature(self.function).bind_partial(sol, *args, **kwargs).arguments
-        return self.function(**{**dict(self.arguments), **given})
-
-    def __getattr__(self, name):
-        for field, value in self.__dict__.get("arguments", ()):
-            if field == name:
-                return value
-        raise AttributeError(name)
-
-    def value(self, sol: Solution, model) -> jax.Array:
-        """The metric of ``sol`` with the fields' values (``model`` is not read)."""
-        return self(sol)
-
-    def edges(self) -> tuple[float, ...]:
-        """``t_min`` and ``t_max`` where numbers, and those of a ``metric`` field [s]."""
-        fields = dict(self.arguments)
-        inner = fields.get("metric")
-        own = finite_numbers(fields.get("t_min"), fields.get("t_max"))
-        return own + (() if inner is None else inner.edges())
-
-    def replace(self, **fields) -> BuiltinMetric:
-        """This metric with the ``fields`` given (each checked: a ValueError naming it and what
-        is allowed; an index is checked against the model when the metric is computed)."""
-        current = dict(self.arguments)
-        unknown = sorted(set(fields) - set(current))
-        if unknown:
-            raise TypeError(
-                f"{self.function.__name__} has no field {', '.join(unknown)}; its fields: "
-                f"{', '.join(current) or 'none'}."
-            )
-        current.update({name: _field(name, value) for name, value in fields.items()})
-        t_min, t_max = current.get("t_min"), current.get("t_max")
-        if finite_numbers(t_min) and finite_numbers(t_max) and not t_max > t_min:
-            raise ValueError(f"t_max must exceed t_min; got the window [{t_min}, {t_max}] s.")
-        return BuiltinMetric(self.function, tuple(current.items()))
-
-    @property
-    def label(self) -> str:
-        """The function's name and the fields that differ from its defaults, e.g.
-        ``peak_ball_load(t_min=0.05, bearing=1)``."""
-        defaults = dict(_defaults(self.function))
-        changed = [f"{k}={_shown(v)}" for k, v in self.arguments if v != defaults[k]]
-        name = self.function.__name__
-        return f"{name}({', '.join(changed)})" if changed else name
-
-    def __repr__(self) -> str:
-        return f"jaxbearing.metrics.{self.label}"
-
-
-def _defaults(function) -> tuple:
-    """((name, default), ...) of ``function``'s arguments after the solution."""
-    parameters = list(inspect.signature(function).parameters.values())[1:]
-    return tuple((p.name, p.default) for p in parameters)
-
-
-def _builtin(function) -> BuiltinMetric:
-    """``function`` of a `Solution` as a `BuiltinMetric` whose fields are its defaults."""
-    return BuiltinMetric(function, _defaults(function))
 
 
 @final
@@ -284,8 +168,6 @@ def solve_options(options, metrics, t1, window_start=None):
     ``window_edges``) added to ``window_edges``, so that their windows end on stops. A record
     declared already is not declared again; a name taken already gets a number (``#2``, ...),
     in the order of ``metrics``, so that a sweep's settings are the same in every process."""
-    from .solve._options import SolveOptions, declaring  # the metrics alone never import the solver
-
     options = SolveOptions() if options is None else options
     declared = list(options.records)
     for name, record in (r for m in metrics for r in m.records()):
@@ -367,17 +249,16 @@ def _empty_window(t_min, t_max, first, last, what):
     )
 
 
-EDGE_TOLERANCE = 1e-12  # [s] a window edge this close to an interval end counts as that end
 _END_IS = "the window's end, or None (to the end of the run)"
 
 
 def _inside(sol: Solution, t_min, t_max):
-    """Which intervals of ``sol.segments`` lie in ``[t_min, t_max]``, and whether the window
+    """Which intervals of ``sol.intervals`` lie in ``[t_min, t_max]``, and whether the window
     has a value: both edges are stops (or outside the solved span) and the run reached its end
     (`reached`). SimulationError or ValueError when not and that is known in Python (a run
     that stopped short first: what else is wrong with the window follows from that)."""
     ok = reached(sol, t_max)
-    inside, on_stops = intervals_inside(sol.segments, window_start(sol, t_min), t_max, "stop intervals")
+    inside, on_stops = intervals_inside(sol.intervals, window_start(sol, t_min), t_max, "stop intervals")
     return inside, ok & on_stops
 
 
@@ -399,16 +280,24 @@ def window_edges(sol: Solution, t_min, t_max):
 
 
 def reached(sol: Solution, t_max):
-    """Whether the run reached the end of a window that ends at ``t_max`` [s] (None: the t1
-    asked for; a later t_max counts as t1). A run that stopped short (``throw=False``) has no
-    metric there: a `SimulationError` saying when and why it stopped where that is known in
-    Python; traced, False (the metric is NaN)."""
+    """Whether the run covers a window that ends at ``t_max`` [s] (None or +inf: the t1 asked
+    for): the window ends at or before t1, and the run reached its end. A window that ends
+    after t1 has no value (the run says nothing of what follows t1): a `ValueError` where that
+    is known in Python. A run that stopped short (``throw=False``) has none either: a
+    `SimulationError` saying when and why it stopped. Traced, False (the metric is NaN)."""
     if t_max is not None:
         t_max = _window_edge("t_max", t_max, _END_IS)
     xp = np if is_concrete(sol.t_final, sol.t1, t_max) else jnp  # NumPy compiles nothing
     t1 = xp.asarray(sol.t1)
-    end = t1 if t_max is None else xp.minimum(t_max, t1)
-    ok = xp.asarray(sol.t_final) >= end - EDGE_TOLERANCE
+    end = t1 if t_max is None else xp.where(t_max == xp.inf, t1, t_max)
+    within = end <= t1 + EDGE_TOLERANCE
+    ok = within & (xp.asarray(sol.t_final) >= end - EDGE_TOLERANCE)
+    if xp is np and not bool(within):
+        raise ValueError(
+            f"The window ends at t_max = {float(end):.6g} s, after the end of the run, t1 = "
+            f"{float(t1):.6g} s: the run says nothing of what follows t1. Pass t_max <= t1 "
+            "(None: to the end of the run), or simulate to a later t1."
+        )
     if xp is np and not bool(ok):
         why = RESULTS[sol.result] if is_concrete(sol.result._value) else "it failed"
         raise SimulationError(
@@ -429,7 +318,7 @@ def window_start(sol: Solution, t_min):
 
 
 def intervals_inside(stats, t_min, t_max, name: str):
-    """Which intervals of ``stats`` (fields t_start, t_end, valid: `SegmentStats`,
+    """Which intervals of ``stats`` (fields t_start, t_end, valid: `solution.Intervals`,
     `FatigueStats`) lie in ``[t_min, t_max]`` [s], and whether both edges are interval ends (or
     outside the solved span): a ValueError naming the ``name`` when they are not and that is
     known in Python; traced, the second value is False (the metric is NaN)."""
@@ -481,48 +370,6 @@ def _window_edge(name, value, what) -> jax.Array:
     return edge
 
 
-def _peak(sol: Solution, column, t_min, t_max):
-    """Max of ``segments.peaks[:, column]`` over the window; NaN if the window has no value.
-    ``column`` None (an element the model lacks): 0. One jitted call after the window's
-    checks."""
-    return _peak_of(sol, *checked_window(sol, t_min, t_max), column)
-
-
-@functools.partial(jax.jit, static_argnums=3)
-def _peak_of(sol: Solution, lo, hi, column):
-    """`_peak` over the window [lo, hi] [s]."""
-    inside, ok = _inside(sol, lo, hi)
-    if column is None:
-        return jnp.where(ok & jnp.any(inside), 0.0, jnp.nan)
-    peak = jnp.max(jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf))
-    return jnp.where(ok & jnp.any(inside), peak, jnp.nan)
-
-
-def _integral(sol: Solution, column, t_min, t_max):
-    """(integral of ``segments.integrals[:, column]``, duration) over the window [.., s]; NaN
-    duration if the window has no value. ``column`` None: an integral of 0."""
-    inside, ok = _inside(sol, t_min, t_max)
-    total = jnp.sum(jnp.where(inside[:, None], sol.segments.integrals, 0.0), axis=0)
-    value = 0.0 * total[INT_TIME] if column is None else total[column]
-    return value, jnp.where(ok, total[INT_TIME], jnp.nan)
-
-
-def _power_mean(sol: Solution, column, t_min, t_max, p, count=1):
-    """FORCE_SCALE (integral / (count T))^(1/p) [N] of a recorded power integral, one jitted
-    call after the checks."""
-    if is_concrete(p) and float(p) != POWER:
-        raise ValueError(
-            f"The solution records power means of order p = {POWER} only; got p = {p}."
-        )
-    return _power_mean_of(sol, *checked_window(sol, t_min, t_max), column, count)
-
-
-@functools.partial(jax.jit, static_argnums=(3, 4))
-def _power_mean_of(sol: Solution, lo, hi, column, count):
-    total, duration = _integral(sol, column, lo, hi)
-    return FORCE_SCALE * (total / (count * duration)) ** (1.0 / POWER)
-
-
 def element_index(name: str, value, count: int, element: str):
     """``value`` checked as an index into the model's ``count`` elements (``name`` the keyword,
     ``element`` what they are); None means the only one."""
@@ -558,234 +405,555 @@ def contact_index(sol: Solution, contact=None) -> int | None:
     return element_index("contact", contact, sol.n_contacts, "impact contact")
 
 
-def _column(sol: Solution, kind: str, index) -> int | None:
-    """`peak_column` of ``kind`` for element ``index`` of ``sol``'s model (None stays None)."""
-    if index is None:
+VIEWS = {"bearings": "bearing", "contacts": "contact", "elements": "element"}
+"""The views of a model's force elements a metric chooses its element in, and the keyword
+that names the element in each."""
+
+_UNSET = object()  # a keyword the call did not give
+
+_START_IS = 'a time [s], "model" (the model\'s window_start) or None (from t0)'
+_STOP_IS = "a time [s] or None (to the end of the run)"
+
+
+def _time(name, value, allowed, *, model=False):
+    """``value`` of the field ``name`` checked as a window edge [s] (a number, +-inf included,
+    None, or "model" where ``model``): a float, or a ValueError saying ``allowed``."""
+    if value is None or (model and isinstance(value, str) and value == "model"):
+        return value
+    real = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not real or math.isnan(value):
+        raise ValueError(f"{name} must be {allowed}; got {value!r}.")
+    return float(value)
+
+
+def _element_key(name, value, view):
+    """``value`` of the element keyword ``name`` checked: None (the only one), an index (an
+    integer >= 0), or in the ``"elements"`` view a name; the model's count is checked when
+    the metric is computed."""
+    if value is None:
         return None
-    return peak_column(kind, index, sol.n_bearings, sol.n_contacts)
-
-
-@_builtin
-def peak_ball_load(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
-    """Largest load on any ball [N] of a bearing joint (``bearing``: index into
-    ``model.bearings``; None: the only one) in the window, the maximum of each solver step's
-    interpolant (`SegmentStats`)."""
-    return _peak(sol, _column(sol, "ball_load", bearing_index(sol, bearing)), t_min, t_max)
-
-
-@_builtin
-def peak_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
-    """Largest magnitude |F| of a bearing joint's resultant (Eq. 28) [N] in the window, the
-    maximum of each solver step's interpolant (`SegmentStats`); ``bearing`` as in
-    `peak_ball_load`."""
-    return _peak(sol, _column(sol, "bearing_force", bearing_index(sol, bearing)), t_min, t_max)
-
-
-@_builtin
-def rms_bearing_force(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
-    """Root-mean-square of a bearing joint's |F| over the window (time-weighted) [N]:
-    Gauss–Legendre quadrature of each step's interpolant (exact for integrands of degree <= 5
-    over a step). Smooth. ``bearing`` as in `peak_ball_load`."""
-    column = integral_column("force_squared", bearing_index(sol, bearing), sol.n_bearings)
-    return _rms_of(sol, *checked_window(sol, t_min, t_max), column)
-
-
-@functools.partial(jax.jit, static_argnums=3)
-def _rms_of(sol: Solution, lo, hi, column):
-    total, duration = _integral(sol, column, lo, hi)
-    return jnp.sqrt(total / duration)
-
-
-@_builtin
-def peak_impact_force(sol: Solution, t_min="model", t_max=None, *, contact=None) -> jax.Array:
-    """Largest normal impact force [N] of a contact (``contact``: index into
-    ``model.contacts``; None: the only one) in the window, the maximum of each solver step's
-    interpolant (`SegmentStats`), so independent of the output times; 0 for a model without
-    contact (nothing is struck)."""
-    return _peak(sol, _column(sol, "contact_force", contact_index(sol, contact)), t_min, t_max)
-
-
-def _coordinate(sol: Solution, coordinate) -> int:
-    """``coordinate`` checked as an index into q."""
-    n = sol.q.shape[-1]
-    integral = isinstance(coordinate, numbers.Integral) and not isinstance(coordinate, bool)
-    if not (integral and 0 <= coordinate < n):
+    if view == "elements" and isinstance(value, str) and value:
+        return value
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        names = " or an element's name" if view == "elements" else ""
         raise ValueError(
-            f"coordinate must be an index into q, an integer in [0, {n}); got {coordinate!r}."
+            f"{name} must be None (the only one) or an index, an integer >= 0{names}; got {value!r}."
         )
-    return int(coordinate)
+    return int(value)
 
 
-@_builtin
-def max_target_displacement(
-    sol: Solution, t_min="model", t_max=None, coordinate=None, *, contact=None
-) -> jax.Array:
-    """Largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate in the window, the maximum of
-    each solver step's interpolant (`SegmentStats`). Default coordinate: the x of the impact
-    target of ``contact`` (`Solution.targets`; None: the only contact; in `cases.xu2014` the
-    target, body 3); a model without impact contact has no target, and the value is 0 (nothing
-    is struck), as `peak_impact_force`'s."""
-    if coordinate is not None:
-        return _peak(sol, _column(sol, "displacement", _coordinate(sol, coordinate)), t_min, t_max)
-    c = contact_index(sol, contact)
-    target = None if c is None else sol.targets[c]
-    return _peak(sol, _column(sol, "displacement", target), t_min, t_max)
+class _Windowed(AbstractMetric):
+    """What the metrics over a window share: ``t_min``, ``t_max`` [s] (checked), the
+    ``preset`` name they are labelled by (None: their class), the call with the window and
+    other fields as keywords, and `replace`. Subclasses list their keyword fields in
+    ``_keywords`` (the window's first), with their defaults as a preset's."""
+
+    _keywords: ClassVar[tuple[str, ...]]
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = False
+
+    def edges(self) -> tuple[float, ...]:
+        """``t_min`` and ``t_max`` where numbers [s]."""
+        return finite_numbers(self.t_min, self.t_max)
+
+    def _check_window(self):
+        if finite_numbers(self.t_min) and finite_numbers(self.t_max) and not self.t_max > self.t_min:
+            raise ValueError(f"t_max must exceed t_min; got the window [{self.t_min}, {self.t_max}] s.")
+
+    def _fields(self) -> dict:
+        """The keyword fields, name -> value, as the call and `replace` name them."""
+        return {k: getattr(self, k) for k in self._field_names()}
+
+    def _field_names(self) -> tuple[str, ...]:
+        return self._keywords
+
+    def replace(self, **fields):
+        """This metric with the ``fields`` given (each checked: a ValueError naming it and what
+        is allowed; an index is checked against the model when the metric is computed)."""
+        current = self._fields()
+        unknown = sorted(set(fields) - set(current))
+        if unknown:
+            raise TypeError(
+                f"{self._name()} has no field {', '.join(unknown)}; its fields: "
+                f"{', '.join(current) or 'none'}."
+            )
+        return self._with({**current, **fields})
+
+    @abc.abstractmethod
+    def _with(self, fields: dict):
+        """This metric with the keyword ``fields`` (all of them), checked."""
+
+    def _name(self) -> str:
+        return self.preset or type(self).__name__
+
+    @property
+    def label(self) -> str:
+        """The preset's name (or the class's) and the fields that differ from its defaults,
+        e.g. ``peak_ball_load(t_min=0.05, bearing=1)``."""
+        defaults = _PRESETS.get(self.preset)
+        base = defaults._fields() if defaults is not None else {}
+        changed = [
+            f"{k}={_shown(v)}" for k, v in self._fields().items() if k not in base or v != base[k]
+        ]
+        return f"{self._name()}({', '.join(changed)})" if changed or defaults is None else self._name()
+
+    def __repr__(self) -> str:
+        return f"jaxbearing.metrics.{self.label}"
 
 
-def _exact_peak(metric) -> BuiltinMetric:
-    """``metric`` checked to be an exact peak (`peak_ball_load`, `peak_bearing_force`,
-    `peak_impact_force`, `max_target_displacement`, or one of them replaced)."""
-    exact = (peak_ball_load, peak_bearing_force, peak_impact_force, max_target_displacement)
-    functions = [m.function for m in exact]
-    if not (isinstance(metric, BuiltinMetric) and any(metric.function is f for f in functions)):
+def _shown(value) -> str:
+    """A field's value as a label shows it."""
+    return value.label if isinstance(value, AbstractMetric) else repr(value)
+
+
+class _OfElement(_Windowed):
+    """A metric of one of a force element's records, ``record`` (its declared name), the
+    element chosen within a ``view`` (`VIEWS`) by ``element``; over the window ``t_min``,
+    ``t_max`` [s]; labelled by ``preset`` (None: its class)."""
+
+    record: str = eqx.field(static=True)
+    view: str = eqx.field(static=True)
+    element: int | str | None = eqx.field(static=True)
+    t_min: float | str | None = eqx.field(static=True)
+    t_max: float | None = eqx.field(static=True)
+    preset: str | None = eqx.field(static=True)
+
+    def __init__(self, record: str, view="elements", element=None, t_min="model", t_max=None, preset=None):
+        self.record, self.view, self.preset = _name("record", record), _view(view), preset
+        self.element = _element_key(VIEWS[self.view], element, self.view)
+        self.t_min = _time("t_min", t_min, _START_IS, model=True)
+        self.t_max = _time("t_max", t_max, _STOP_IS)
+        self._check_window()
+
+    def _with(self, fields):
+        keyword = VIEWS[self.view]
+        return type(self)(self.record, self.view, fields[keyword], fields["t_min"], fields["t_max"], self.preset)
+
+    def _field_names(self) -> tuple[str, ...]:
+        return ("t_min", "t_max", VIEWS[self.view])
+
+    def _fields(self) -> dict:
+        return {"t_min": self.t_min, "t_max": self.t_max, VIEWS[self.view]: self.element}
+
+    @property
+    def bearing(self) -> int | None:
+        """``element`` of a metric of the bearing joints (its keyword's name)."""
+        return self._keyword("bearings")
+
+    @property
+    def contact(self) -> int | None:
+        """``element`` of a metric of the impact contacts (its keyword's name)."""
+        return self._keyword("contacts")
+
+    def _keyword(self, view):
+        if self.view != view:
+            raise AttributeError(f"{self._name()} chooses its element by {VIEWS[self.view]}=, not {VIEWS[view]}=.")
+        return self.element
+
+    def _element(self, sol: Solution) -> int | None:
+        """The element's index in ``model.forces`` (None: the view is empty and no element was
+        named)."""
+        return element_of(sol, self.view, self.element)
+
+    def __call__(self, sol: Solution, t_min=_UNSET, t_max=_UNSET, **element) -> jax.Array:
+        """The metric of ``sol`` over the window given (default: this metric's; edges may be
+        traced) of the element named by the view's keyword (``bearing=``, ``contact=``,
+        ``element=``; default: this metric's)."""
+        metric = self.replace(**element) if element else self
+        window = _given(t_min=t_min, t_max=t_max)
+        return metric._at(sol, window.get("t_min", metric.t_min), window.get("t_max", metric.t_max))
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        """The metric of ``sol`` over its window (``model`` is not read)."""
+        return self._at(sol, self.t_min, self.t_max)
+
+    def _at(self, sol: Solution, t_min, t_max) -> jax.Array:
+        """The metric of ``sol`` over the window [t_min, t_max] [s]: of its element's records,
+        or 0 where the view is empty and no element is named (nothing acted)."""
+        e = self._element(sol)
+        edges = checked_window(sol, t_min, t_max)
+        if e is None:
+            return _nothing_of(sol, *edges)
+        return self._of(sol, edges, e)
+
+    @abc.abstractmethod
+    def _of(self, sol: Solution, edges, e: int) -> jax.Array:
+        """The metric of element ``e``'s record over the window ``edges`` (lo, hi) [s]."""
+
+
+def _given(**keywords) -> dict:
+    """The keywords a call gave (not `_UNSET`)."""
+    return {k: v for k, v in keywords.items() if v is not _UNSET}
+
+
+@final
+class ElementPeak(_OfElement):
+    """The exact peak [the record's unit] of the peak record ``record`` of one force element
+    over the window: the maximum of each solver step's interpolant
+    (`solution.ElementRecords.peaks`); 0 where the view is empty and no element is named (a
+    model without contact has no impact force). ``record``: the peak record's name, e.g.
+    ``"max_element_load"`` of a bearing joint, ``"normal_force"`` of a contact."""
+
+    def _of(self, sol: Solution, edges, e: int) -> jax.Array:
+        _has_peak(sol, e, self.record)
+        return _peak_of(sol, *edges, e, self.record)
+
+
+@final
+class PowerMean(_OfElement):
+    """The power mean scale (integral / (T scale^p))^(1/p) [the quantity's unit] over the
+    window of duration T of the power integral ``record`` of one force element (its power p
+    and scale as the element declares them: `IntegralRecord`): the RMS for p = 2, a smooth
+    stand-in for a peak for p = `solution.POWER`; Gauss–Legendre quadrature of each step's
+    interpolant (exact for integrands of degree <= 5 over a step); 0 where the view is empty
+    and no element is named."""
+
+    def _of(self, sol: Solution, edges, e: int) -> jax.Array:
+        power, scale = sol.records.elements[e].power(self.record)
+        return _power_mean_of(sol, *edges, e, self.record, power, scale)
+
+
+@final
+class CoordinatePeak(_Windowed):
+    """The largest |q_c(t) - q_c(t0)| [m or rad] of one coordinate over the window, the maximum
+    of each solver step's interpolant (`solution.Records.displacement`). ``coordinate``: an
+    index into q; None: the x of the impact target of ``contact`` (`Solution.targets`; None:
+    the only contact; in `cases.xu2014` the target, body 3), 0 for a model without contact
+    (nothing is struck)."""
+
+    coordinate: int | None = eqx.field(static=True)
+    contact: int | None = eqx.field(static=True)
+    t_min: float | str | None = eqx.field(static=True)
+    t_max: float | None = eqx.field(static=True)
+    preset: str | None = eqx.field(static=True)
+    _keywords: ClassVar[tuple[str, ...]] = ("t_min", "t_max", "coordinate", "contact")
+
+    def __init__(self, coordinate=None, contact=None, t_min="model", t_max=None, preset=None):
+        if coordinate is not None and (
+            isinstance(coordinate, bool) or not isinstance(coordinate, numbers.Integral) or coordinate < 0
+        ):
+            raise ValueError(
+                "coordinate must be None (the impact target's x) or an index into q, an integer "
+                f">= 0; got {coordinate!r}."
+            )
+        self.coordinate = None if coordinate is None else int(coordinate)
+        self.contact = _element_key("contact", contact, "contacts")
+        self.t_min = _time("t_min", t_min, _START_IS, model=True)
+        self.t_max = _time("t_max", t_max, _STOP_IS)
+        self.preset = preset
+        self._check_window()
+
+    def _with(self, fields):
+        return CoordinatePeak(fields["coordinate"], fields["contact"], fields["t_min"], fields["t_max"], self.preset)
+
+    def __call__(self, sol: Solution, t_min=_UNSET, t_max=_UNSET, coordinate=_UNSET, *, contact=_UNSET):
+        """The metric of ``sol`` with the fields given (default: this metric's; window edges
+        may be traced)."""
+        changes = _given(coordinate=coordinate, contact=contact)
+        metric = self.replace(**changes) if changes else self
+        window = _given(t_min=t_min, t_max=t_max)
+        return metric._at(sol, window.get("t_min", metric.t_min), window.get("t_max", metric.t_max))
+
+    def _coordinate(self, sol: Solution) -> int | None:
+        if self.coordinate is not None:
+            n = sol.q.shape[-1]
+            if not self.coordinate < n:
+                raise ValueError(
+                    f"coordinate must be an index into q, an integer in [0, {n}); got {self.coordinate!r}."
+                )
+            return self.coordinate
+        c = contact_index(sol, self.contact)
+        return None if c is None else sol.targets[c]
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        """The metric of ``sol`` over its window (``model`` is not read)."""
+        return self._at(sol, self.t_min, self.t_max)
+
+    def _at(self, sol: Solution, t_min, t_max) -> jax.Array:
+        c = self._coordinate(sol)
+        edges = checked_window(sol, t_min, t_max)
+        if c is None:
+            return _nothing_of(sol, *edges)
+        return _displacement_of(sol, *edges, c)
+
+
+def _exact_peak(metric):
+    """``metric`` checked to be an exact peak (an `ElementPeak` or `CoordinatePeak`, e.g.
+    `peak_ball_load`, `peak_bearing_force`, `peak_impact_force`, `max_target_displacement`)."""
+    if not isinstance(metric, (ElementPeak, CoordinatePeak)):
         given = f"the string {metric!r}" if isinstance(metric, str) else repr(metric)
         raise ValueError(
-            "metric must be an exact peak (the metric, not its name): "
-            "jaxbearing.metrics.peak_ball_load, peak_bearing_force, peak_impact_force or "
-            f"max_target_displacement, or one of them .replace(...)d; got {given}."
+            "metric must be an exact peak (the metric, not its name): an ElementPeak or "
+            "CoordinatePeak, e.g. jaxbearing.metrics.peak_ball_load, peak_bearing_force, "
+            f"peak_impact_force or max_target_displacement, or one of them .replace(...)d; got {given}."
         )
     return metric
 
 
-def _peak_column(sol: Solution, metric: BuiltinMetric, bearing, contact, coordinate) -> int | None:
-    """The `SegmentStats` column of the exact peak ``metric`` of the element named (None: an
-    element the model lacks)."""
-    if metric.function in (peak_ball_load.function, peak_bearing_force.function):
-        kind = "ball_load" if metric.function is peak_ball_load.function else "bearing_force"
-        return _column(sol, kind, bearing_index(sol, bearing))
-    if metric.function is peak_impact_force.function:
-        return _column(sol, "contact_force", contact_index(sol, contact))
-    if coordinate is not None:
-        return _column(sol, "displacement", _coordinate(sol, coordinate))
-    c = contact_index(sol, contact)
-    if c is None:
-        raise ValueError("This solution has no impact target (its model has no contact).")
-    return _column(sol, "displacement", sol.targets[c])
+class _OfPeak(_Windowed):
+    """A metric of an exact peak ``metric`` (`ElementPeak`, `CoordinatePeak`): its window
+    (``t_min``, ``t_max``) and element (``bearing``, ``contact``) are its own where set, else
+    the metric's; set in both, differently, they are refused."""
+
+    metric: AbstractMetric | None = eqx.field(static=True)
+    t_min: float | str | None = eqx.field(static=True)
+    t_max: float | None = eqx.field(static=True)
+    bearing: int | None = eqx.field(static=True)
+    contact: int | None = eqx.field(static=True)
+    preset: str | None = eqx.field(static=True)
+
+    def __init__(self, metric=None, t_min="model", t_max=None, bearing=None, contact=None, preset=None):
+        self.metric = None if metric is None else _exact_peak(metric)
+        self.t_min = _time("t_min", t_min, _START_IS, model=True)
+        self.t_max = _time("t_max", t_max, _STOP_IS)
+        self.bearing = _element_key("bearing", bearing, "bearings")
+        self.contact = _element_key("contact", contact, "contacts")
+        self.preset = preset
+        self._check_window()
+
+    def _with(self, fields):
+        every = {"bearing": None, "contact": None, **fields}
+        return type(self)(every["metric"], every["t_min"], every["t_max"], every["bearing"], every["contact"], self.preset)
+
+    def __call__(self, sol: Solution, *args, **fields) -> jax.Array:
+        """The metric of ``sol`` with the fields given (positionally in ``_keywords`` order
+        after the solution), others as they are."""
+        names = self._keywords
+        if len(args) > len(names):
+            raise TypeError(f"{self._name()} takes at most {len(names)} fields after the solution.")
+        given = {**dict(zip(names, args)), **fields}
+        return (self.replace(**given) if given else self).value(sol)
+
+    def edges(self) -> tuple[float, ...]:
+        """Its own window edges and its metric's [s]."""
+        own = finite_numbers(self.t_min, self.t_max)
+        return own + (() if self.metric is None else self.metric.edges())
+
+    def peak(self) -> AbstractMetric:
+        """The exact peak it reads: its metric with its own window and element where set."""
+        peak = _exact_peak(self.metric)
+        theirs = peak._fields()
+        defaults = {"t_min": "model", "t_max": None, "bearing": None, "contact": None}
+        changes = {}
+        for name, default in defaults.items():
+            own = getattr(self, name)
+            if own == default and (name != "t_min" or isinstance(own, str)):
+                continue
+            if name not in theirs:
+                raise TypeError(f"{self._name()} got {name}={own!r}; its metric {peak.label} has no field {name}.")
+            mine = theirs[name]
+            mine_default = mine == default and (name != "t_min" or isinstance(mine, str))
+            if not mine_default and mine != own:
+                raise ValueError(
+                    f"{self._name()} got {name}={own!r} and a metric with {name}={mine!r}: give "
+                    f"{name} once."
+                )
+            changes[name] = own
+        return peak.replace(**changes) if changes else peak
 
 
-def _either(name, own, default, theirs):
-    """peak_time's ``own`` value of field ``name``, or its metric's (``theirs``) where ``own``
-    is the default; a ValueError where both are set and differ."""
-    def is_default(v):
-        return v is None if default is None else (isinstance(v, str) and v == default)
+@final
+class PeakTime(_OfPeak):
+    """Time [s] at which the exact peak ``metric`` (`ElementPeak`, `CoordinatePeak`) is
+    attained in the window: the earliest recorded point that attains it (`solution.
+    ElementRecords.peak_times`), so independent of the output times; NaN where the peak is 0
+    (the element never acted in the window: no impact). No derivative: the point that attains
+    a maximum jumps between steps. The window and element are its own where given, else the
+    metric's: ``peak_time(sol, peak_ball_load, bearing=1)``; in a sweep,
+    ``peak_time.replace(metric=peak_impact_force)``."""
 
-    if is_default(own):
-        return theirs
-    same = finite_numbers(own) and finite_numbers(own) == finite_numbers(theirs)
-    if is_default(theirs) or same:
-        return own
-    raise ValueError(
-        f"peak_time got {name}={own!r} and a metric with {name}={theirs!r}: give {name} once."
-    )
+    _keywords: ClassVar[tuple[str, ...]] = ("metric", "t_min", "t_max", "bearing", "contact")
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        peak = self.peak()
+        edges = checked_window(sol, peak.t_min, peak.t_max)
+        if isinstance(peak, CoordinatePeak):
+            c = peak._coordinate(sol)
+            if c is None:  # no contact: nothing was struck, at no time
+                return to_float64(np.nan)
+            return _displacement_time_of(sol, *edges, c)
+        e = peak._element(sol)
+        if e is None:
+            return to_float64(np.nan)
+        _has_peak(sol, e, peak.record)
+        return _peak_time_of(sol, *edges, e, peak.record)
 
 
-def _where_peak(sol: Solution, column, t_min, t_max):
-    """(interval attaining the peak of ``column`` in the window (the earliest of equals), the
-    peak, and whether the window has a value)."""
-    inside, ok = _inside(sol, t_min, t_max)
-    peaks = jnp.where(inside, sol.segments.peaks[:, column], -jnp.inf)
+def _carrying(sol: Solution, peak) -> int:
+    """The element of ``peak``, whose record must carry an array at its peak (a bearing
+    joint's ``max_element_load`` carries its element loads)."""
+    e = peak._element(sol) if isinstance(peak, ElementPeak) else None
+    if e is None or peak.record not in sol.records.elements[e].at_peak:
+        raise ValueError(
+            f"{peak.label}: its record carries no array at its peak (a bearing joint's "
+            "max_element_load carries its element loads)."
+        )
+    return e
+
+
+@final
+class AtPeak(_OfPeak):
+    """The array the peak record of ``metric`` (an `ElementPeak` whose record carries one: a
+    bearing joint's ``max_element_load`` carries its ``element_loads``) holds at the peak's
+    time in the window (`PeakTime`): a bearing's every ball load [N] at its worst instant,
+    ball 1 first; NaN for a window without value (traced). A vector: in a sweep, take one
+    entry."""
+
+    _keywords: ClassVar[tuple[str, ...]] = ("t_min", "t_max", "bearing", "metric")
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        peak = self.peak()
+        e = _carrying(sol, peak)
+        return _at_peak_of(sol, *checked_window(sol, peak.t_min, peak.t_max), e, peak.record)
+
+
+@final
+class PeakIndex(_OfPeak):
+    """Which entry of the array `AtPeak` gives is the largest: the ball that carries
+    `peak_ball_load` (0 = ball 1), an int; -1 for a window without value (traced)."""
+
+    _keywords: ClassVar[tuple[str, ...]] = ("t_min", "t_max", "bearing", "metric")
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        peak = self.peak()
+        e = _carrying(sol, peak)
+        return _peak_index_of(sol, *checked_window(sol, peak.t_min, peak.t_max), e, peak.record)
+
+
+@final
+class MaxDrift(AbstractMetric):
+    """The largest constraint violation max |Phi(q, t)| [m or rad] at the end of every accepted
+    step of the whole run (`Solution.max_drift`; `Mechanism.drift_bound` says how much is too
+    much). A sweep records it for every member."""
+
+    reads_samples: ClassVar[bool] = False
+    reads_fatigue: ClassVar[bool] = False
+
+    def __call__(self, sol: Solution) -> jax.Array:
+        return self.value(sol)
+
+    def value(self, sol: Solution, model=None) -> jax.Array:
+        return sol.max_drift
+
+    @property
+    def label(self) -> str:
+        return "max_drift"
+
+    def __repr__(self) -> str:
+        return "jaxbearing.metrics.max_drift"
+
+
+def _name(field: str, value) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{field} must name a record (a non-empty string); got {value!r}.")
+    return value
+
+
+def _view(view) -> str:
+    if view not in VIEWS:
+        raise ValueError(f"view must be one of {', '.join(map(repr, VIEWS))}; got {view!r}.")
+    return view
+
+
+def element_of(sol: Solution, view: str, key) -> int | None:
+    """The index in ``model.forces`` of the element ``key`` of ``view`` (`VIEWS`; None: the only
+    one, or None for an empty view of contacts or elements); a ValueError for a view without
+    such an element, for None with several, and for an index it lacks."""
+    if view == "elements":
+        if key is None:
+            count = len(sol.layout.kinds)
+            return element_index("element", None, count, "force element") if count else None
+        if isinstance(key, str):
+            return sol.layout.index(key)
+        return element_index("element", key, len(sol.layout.kinds), "force element")
+    if view == "bearings":
+        return sol.layout.bearings[bearing_index(sol, key)]
+    c = contact_index(sol, key)
+    return None if c is None else sol.layout.contacts[c]
+
+
+def _has_peak(sol: Solution, e: int, quantity: str) -> None:
+    peaks = sol.records.elements[e].peaks
+    if quantity not in peaks:
+        raise ValueError(
+            f"Force element {e} ({sol.layout.kinds[e]}) records no peak {quantity!r}; its peak "
+            f"records: {sorted(peaks) or 'none'}."
+        )
+
+
+def _where_peak(values, sol: Solution, lo, hi):
+    """(interval attaining the peak of ``values`` (C,) in the window (the earliest of equals),
+    the peak, and whether the window has a value)."""
+    inside, ok = _inside(sol, lo, hi)
+    peaks = jnp.where(inside, values, -jnp.inf)
     i = jnp.argmax(peaks)
     return i, peaks[i], ok & jnp.any(inside)
 
 
-@_builtin
-def peak_time(
-    sol: Solution, metric=None, t_min="model", t_max=None, *, bearing=None, contact=None
-) -> jax.Array:
-    """Time [s] at which the exact peak ``metric`` (`peak_ball_load`, `peak_bearing_force`,
-    `peak_impact_force`, or `max_target_displacement`; of the bearing joint or contact named by
-    ``bearing`` / ``contact`` as there, or by the metric's own fields:
-    ``peak_time(sol, peak_ball_load.replace(bearing=1))`` is bearing 1's) is attained in the
-    window: the earliest recorded point that attains it (`SegmentStats.peak_times`), so
-    independent of the output times; NaN where the peak is 0 (the element never acted in the
-    window: no impact). The window and the element are peak_time's where given, else the
-    metric's. No derivative: the point that attains a maximum jumps between steps. In a sweep,
-    pass ``peak_time.replace(metric=peak_impact_force)``."""
-    metric = _exact_peak(metric)
-    theirs = dict(metric.arguments)
-    t_min = _either("t_min", t_min, "model", theirs["t_min"])
-    t_max = _either("t_max", t_max, None, theirs["t_max"])
-    bearing = _either("bearing", bearing, None, theirs.get("bearing"))
-    contact = _either("contact", contact, None, theirs.get("contact"))
-    column = _peak_column(sol, metric, bearing, contact, theirs.get("coordinate"))
-    edges = checked_window(sol, t_min, t_max)
-    if column is None:  # no contact: nothing was struck, at no time
-        return to_float64(np.nan)
-    return _peak_time_of(sol, *edges, column)
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _peak_of(sol: Solution, lo, hi, e, quantity):
+    """The peak of element ``e``'s record ``quantity`` over the window [lo, hi] [s]; NaN for a
+    window without value."""
+    _, peak, has_value = _where_peak(sol.records.elements[e].peaks[quantity], sol, lo, hi)
+    return jnp.where(has_value, peak, jnp.nan)
+
+
+@jax.jit
+def _nothing_of(sol: Solution, lo, hi):
+    """0 over the window [lo, hi] [s] (an element the model lacks: nothing acted); NaN for a
+    window without value."""
+    inside, ok = _inside(sol, lo, hi)
+    return jnp.where(ok & jnp.any(inside), 0.0, jnp.nan)
 
 
 @functools.partial(jax.jit, static_argnums=3)
-def _peak_time_of(sol: Solution, lo, hi, column):
-    i, peak, has_value = _where_peak(sol, column, lo, hi)
-    time = jax.lax.stop_gradient(sol.segments.peak_times[i, column])
+def _displacement_of(sol: Solution, lo, hi, c):
+    _, peak, has_value = _where_peak(sol.records.displacement[:, c], sol, lo, hi)
+    return jnp.where(has_value, peak, jnp.nan)
+
+
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _peak_time_of(sol: Solution, lo, hi, e, quantity):
+    records = sol.records.elements[e]
+    i, peak, has_value = _where_peak(records.peaks[quantity], sol, lo, hi)
+    time = jax.lax.stop_gradient(records.peak_times[quantity][i])
     return jnp.where(has_value & (peak > 0.0), time, jnp.nan)
 
 
-@_builtin
-def loads_at_peak(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
-    """Every ball's load [N] of a bearing joint (``bearing`` as in `peak_ball_load`) at the time
-    of its `peak_ball_load` in the window (its `peak_time`), (N_b,), ball 1 first: the load
-    distribution at the worst instant (`SegmentStats.peak_loads`); NaN for a window without
-    value (traced). A vector: in a sweep, take one ball's entry."""
-    b = bearing_index(sol, bearing)
-    return _loads_at_peak_of(sol, *checked_window(sol, t_min, t_max), b)
-
-
 @functools.partial(jax.jit, static_argnums=3)
-def _loads_at_peak_of(sol: Solution, lo, hi, b):
-    i, _, has_value = _where_peak(sol, _column(sol, "ball_load", b), lo, hi)
-    return jnp.where(has_value, sol.segments.peak_loads[b][i], jnp.nan)
+def _displacement_time_of(sol: Solution, lo, hi, c):
+    i, peak, has_value = _where_peak(sol.records.displacement[:, c], sol, lo, hi)
+    time = jax.lax.stop_gradient(sol.records.displacement_times[i, c])
+    return jnp.where(has_value & (peak > 0.0), time, jnp.nan)
 
 
-@_builtin
-def peak_ball(sol: Solution, t_min="model", t_max=None, *, bearing=None) -> jax.Array:
-    """The ball that carries `peak_ball_load` in the window: its column of the bearing's
-    ``ball_loads`` (0 = ball 1), an int; -1 for a window without value (traced)."""
-    b = bearing_index(sol, bearing)
-    return _peak_ball_of(sol, *checked_window(sol, t_min, t_max), b)
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _at_peak_of(sol: Solution, lo, hi, e, quantity):
+    records = sol.records.elements[e]
+    i, _, has_value = _where_peak(records.peaks[quantity], sol, lo, hi)
+    return jnp.where(has_value, records.at_peak[quantity][i], jnp.nan)
 
 
-@functools.partial(jax.jit, static_argnums=3)
-def _peak_ball_of(sol: Solution, lo, hi, b):
-    loads = _loads_at_peak_of(sol, lo, hi, b)
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _peak_index_of(sol: Solution, lo, hi, e, quantity):
+    loads = _at_peak_of(sol, lo, hi, e, quantity)
     return jnp.where(jnp.isnan(loads[0]), -1, jnp.argmax(loads))
 
 
-@_builtin
-def smooth_peak_ball_load(
-    sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
-) -> jax.Array:
-    """Power mean of order p of all ball loads of a bearing joint (``bearing`` as in
-    `peak_ball_load`) over the window and the balls [N]: a differentiable stand-in for
-    `peak_ball_load` (below it; closer as p grows). Gauss–Legendre quadrature of each step's
-    interpolant; p must be `solution.POWER` (16)."""
-    b = bearing_index(sol, bearing)
-    n_balls = sol.bearings[b].ball_loads.shape[-1]
-    column = integral_column("ball_load_power", b, sol.n_bearings)
-    return _power_mean(sol, column, t_min, t_max, p, n_balls)
+def _integral(sol: Solution, values, lo, hi):
+    """(integral over the window of ``values`` (C, ...) per interval, duration) [.., s]; NaN
+    duration if the window has no value."""
+    inside, ok = _inside(sol, lo, hi)
+    where = inside.reshape(inside.shape + (1,) * (values.ndim - 1))
+    total = jnp.sum(jnp.where(where, values, 0.0), axis=0)
+    duration = jnp.sum(jnp.where(inside, sol.intervals.duration, 0.0))
+    return total, jnp.where(ok, duration, jnp.nan)
 
 
-@_builtin
-def smooth_peak_bearing_force(
-    sol: Solution, t_min="model", t_max=None, p=16.0, *, bearing=None
-) -> jax.Array:
-    """Power mean of order p of a bearing joint's |F| over the window [N]: differentiable
-    stand-in for the peak. Gauss–Legendre quadrature of each step's interpolant; p must be
-    `solution.POWER` (16)."""
-    column = integral_column("force_power", bearing_index(sol, bearing), sol.n_bearings)
-    return _power_mean(sol, column, t_min, t_max, p)
-
-
-@_builtin
-def smooth_peak_impact_force(
-    sol: Solution, t_min="model", t_max=None, p=16.0, *, contact=None
-) -> jax.Array:
-    """Power mean of order p of a contact's impact force (``contact`` as in
-    `peak_impact_force`) over the window [N]. Gauss–Legendre quadrature of each step's
-    interpolant; p must be `solution.POWER` (16); 0 for a model without contact."""
-    c = contact_index(sol, contact)
-    column = None if c is None else integral_column("contact_force_power", c, sol.n_bearings)
-    return _power_mean(sol, column, t_min, t_max, p)
+@functools.partial(jax.jit, static_argnums=(3, 4, 5, 6))
+def _power_mean_of(sol: Solution, lo, hi, e, name, power, scale):
+    total, duration = _integral(sol, sol.records.elements[e].integrals[name], lo, hi)
+    return scale * (total / duration) ** (1.0 / power)
 
 
 class _Own(AbstractRecord, AbstractMetric):
@@ -854,15 +1022,16 @@ class _Own(AbstractRecord, AbstractMetric):
 @final
 class Peak(_Own):
     """The largest value over the window of ``fn(model, x)`` (x: the `solution.Instant` of each
-    recorded point), recorded like the built-in exact peaks: at every accepted step's end, its 3
-    Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of a
-    parabola through them. Window from ``t_min`` to ``t_max`` [s]: None, the model's
+    recorded point), recorded like the elements' exact peaks: at every accepted step's end, its
+    3 Gauss–Legendre points and, where the step may hold a new peak between them, the vertex of
+    a parabola through them. Window from ``t_min`` to ``t_max`` [s]: None, the model's
     ``window_start`` (t0 without one) and t1."""
 
     reduction = "peak"
 
-    def read(self, sol: Solution, column: int) -> jax.Array:
-        return _peak(sol, column, *self._window())
+    def read(self, sol: Solution, name: str) -> jax.Array:
+        """Its value over its window from the record ``name`` of ``sol``."""
+        return _own_peak_of(sol, *checked_window(sol, *self._window()), name)
 
 
 @final
@@ -873,18 +1042,73 @@ class Mean(_Own):
 
     reduction = "mean"
 
-    def read(self, sol: Solution, column: int) -> jax.Array:
-        total, duration = _integral(sol, column, *self._window())
-        return total / duration
+    def read(self, sol: Solution, name: str) -> jax.Array:
+        """Its value over its window from the record ``name`` of ``sol``."""
+        return _own_mean_of(sol, *checked_window(sol, *self._window()), name)
 
 
-@_builtin
-def max_drift(sol: Solution) -> jax.Array:
-    """The largest constraint violation max |Phi(q, t)| [m or rad] at the end of every accepted
-    step of the whole run (`Solution.max_drift`; `solution.drift_bound` says how much is too
-    much). A sweep records it for every member."""
-    return sol.max_drift
+@functools.partial(jax.jit, static_argnums=3)
+def _own_peak_of(sol: Solution, lo, hi, name):
+    _, peak, has_value = _where_peak(sol.records.own.peaks[name], sol, lo, hi)
+    return jnp.where(has_value, peak, jnp.nan)
 
+
+@functools.partial(jax.jit, static_argnums=3)
+def _own_mean_of(sol: Solution, lo, hi, name):
+    total, duration = _integral(sol, sol.records.own.integrals[name], lo, hi)
+    return total / duration
+
+
+peak_ball_load = ElementPeak("max_element_load", "bearings", preset="peak_ball_load")
+"""Largest load on any ball [N] of a bearing joint (``bearing``: index into
+``model.bearings``; None: the only one) in the window, the maximum of each solver step's
+interpolant."""
+
+peak_bearing_force = ElementPeak("force_magnitude", "bearings", preset="peak_bearing_force")
+"""Largest magnitude |F| of a bearing joint's resultant (Eq. 28) [N] in the window;
+``bearing`` as in `peak_ball_load`."""
+
+peak_impact_force = ElementPeak("normal_force", "contacts", preset="peak_impact_force")
+"""Largest normal impact force [N] of a contact (``contact``: index into ``model.contacts``;
+None: the only one) in the window; 0 for a model without contact (nothing is struck)."""
+
+rms_bearing_force = PowerMean("force_squared", "bearings", preset="rms_bearing_force")
+"""Root-mean-square of a bearing joint's |F| over the window (time-weighted) [N]. Smooth."""
+
+smooth_peak_ball_load = PowerMean("element_load_power", "bearings", preset="smooth_peak_ball_load")
+"""Power mean of order `solution.POWER` of all ball loads of a bearing joint over the window
+and the balls [N]: a differentiable stand-in for `peak_ball_load` (below it)."""
+
+smooth_peak_bearing_force = PowerMean("force_power", "bearings", preset="smooth_peak_bearing_force")
+"""Power mean of order `solution.POWER` of a bearing joint's |F| over the window [N]."""
+
+smooth_peak_impact_force = PowerMean("normal_force_power", "contacts", preset="smooth_peak_impact_force")
+"""Power mean of order `solution.POWER` of a contact's normal force over the window [N]; 0 for
+a model without contact."""
+
+max_target_displacement = CoordinatePeak(preset="max_target_displacement")
+"""Largest displacement [m] of the impact target (or of a ``coordinate``) in the window."""
+
+peak_time = PeakTime(preset="peak_time")
+"""When an exact peak is attained [s]: ``peak_time(sol, peak_impact_force)``."""
+
+loads_at_peak = AtPeak(peak_ball_load, preset="loads_at_peak")
+"""Every ball's load [N] of a bearing joint at its `peak_ball_load` in the window, (N_b,)."""
+
+peak_ball = PeakIndex(peak_ball_load, preset="peak_ball")
+"""The ball that carries `peak_ball_load` in the window (0 = ball 1); -1 without value."""
+
+max_drift = MaxDrift()
+"""The largest constraint violation of the run [m or rad]."""
+
+_PRESETS = {
+    m.preset: m
+    for m in (
+        peak_ball_load, peak_bearing_force, peak_impact_force, rms_bearing_force,
+        smooth_peak_ball_load, smooth_peak_bearing_force, smooth_peak_impact_force,
+        max_target_displacement, peak_time, loads_at_peak, peak_ball,
+    )
+}  # fmt: skip
 
 STANDARD = {
     "peak_ball_load": peak_ball_load,
@@ -893,7 +1117,7 @@ STANDARD = {
     "peak_impact_force": peak_impact_force,
     "max_target_displacement": max_target_displacement,
 }
-"""The standard metrics (name -> `BuiltinMetric`), used by default in sweeps."""
+"""The standard metrics (name -> metric), used by default in sweeps."""
 
 SMOOTH = {
     "smooth_peak_ball_load": smooth_peak_ball_load,
@@ -933,8 +1157,6 @@ def converged(
     its window edges added to the solve's stops: `solve_options`) or a function of a
     `Solution`; ``ts`` and ``simulate_kwargs`` go to `simulate`, which runs once per tolerance
     (one compilation for all)."""
-    from .solve import default_controller, simulate  # the metrics alone never import the solver
-
     rtols = tuple(float(r) for r in rtols)
     if len(rtols) < 2:
         raise ValueError(f"rtols must hold at least two relative tolerances; got {rtols}.")

@@ -16,12 +16,19 @@ import equinox as eqx
 import jax
 
 from . import _checks
-from .laws import hertz
+from .laws import hertz, rules
 
 CageMode = Literal["kinematic", "constant"]
 BallForce = Literal["paper", "smooth"]
 
 MAX_CLEARANCE_FRACTION = 0.1  # largest diametral clearance, as a fraction of the element diameter
+# largest preload (a negative diametral clearance), as a fraction of the element diameter: the
+# preload alone compresses each element by |P_d|/2 and, for steel elements, reaches ISO 76's
+# permissible contact stress (4 200 MPa balls, 4 000 MPa rollers) at 1.4-1.5 % (balls of
+# conformity 0.52) and 1.65-1.7 % (rollers) of the element diameter, nearly whatever the size
+# (Hertz: the approach at a given stress scales with the element). At 1 % the preload alone
+# stays below 84 % of it (docs/model.md, 'Clearance and preload').
+MAX_PRELOAD_FRACTION = 0.01
 # Catalogue bearings: the internal geometry from_geometry needs (pitch and ball diameter [m],
 # balls, groove curvature ratios f = r/D). SKF 98205: paper Table 2; the groove ratios
 # reproduce the paper's K_i, K_o (docs/model.md, 'Groove curvature ratios').
@@ -73,8 +80,11 @@ class AbstractBearing(eqx.Module):
     and array names (``n_balls``, ``ball_force``, ``ball_loads``) means "rolling element".
 
     Fields:
-        clearance: P_d, diametral clearance [m] (Eq. 12 subtracts P_d/2 on each side); at most
-            `MAX_CLEARANCE_FRACTION` of the element diameter (catalogue clearances are below 1 %).
+        clearance: P_d, diametral operating clearance [m] (Eq. 12 subtracts P_d/2 on each side);
+            at most `MAX_CLEARANCE_FRACTION` of the element diameter (catalogue clearances are
+            below 1 %); negative for a preload (an interference fit), down to
+            -`MAX_PRELOAD_FRACTION` of the element diameter (docs/model.md, 'Clearance and
+            preload').
         stiffness: K_b, element load–deflection constant, inner and outer contact in series
             [N/m^exponent] (Eq. 11 for balls; Palmgren's line contact for rollers).
         damping: C_b, per-element damping coefficient [N s/m] (Eq. 9).
@@ -90,8 +100,11 @@ class AbstractBearing(eqx.Module):
         ball_force: ``"paper"`` (Eq. 9, damping on at first touch) or ``"smooth"`` (damping
             ramped in over ``damping_ramp``, for gradients) (static).
 
-    Class constant ``life_exponent``: p of the load–life law L10 = (C/P)^p (ISO 281: 3 for
-    ball bearings, 10/3 for roller bearings).
+    Class constants: ``life_exponent``, p of the load–life law L10 = (C/P)^p (ISO 281: 3 for
+    ball bearings, 10/3 for roller bearings); ``raceway_exponent``, the load–life exponent of one
+    raceway contact, L = (Q_c/Q_e)^m (Lundberg–Palmgren: 3 for point contact, 4 for line
+    contact); ``weibull_slope``, e of the raceways' survival, with which their lives combine
+    (10/9 for balls, 9/8 for rollers; `jaxbearing.life.reference_life`).
     """
 
     clearance: jax.Array
@@ -105,6 +118,8 @@ class AbstractBearing(eqx.Module):
     cage: CageMode = eqx.field(static=True)
     ball_force: BallForce = eqx.field(static=True)
     life_exponent: eqx.AbstractClassVar[float]
+    raceway_exponent: eqx.AbstractClassVar[int]
+    weibull_slope: eqx.AbstractClassVar[float]
 
     def __init__(
         self,
@@ -163,7 +178,6 @@ class AbstractBearing(eqx.Module):
         )
         clearance, inner, outer = (xp.asarray(v) for v in (self.clearance, self.inner_race_diameter, self.outer_race_diameter))
         return [
-            _checks.non_negative(xp, named("clearance"), clearance, "m"),
             _checks.positive(xp, named("stiffness"), self.stiffness, "N/m^n"),
             _checks.non_negative(xp, named("damping"), self.damping, "N s/m"),
             _checks.positive(xp, named("inner_race_diameter"), inner, "m"),
@@ -177,6 +191,13 @@ class AbstractBearing(eqx.Module):
                 clearance > MAX_CLEARANCE_FRACTION * xp.asarray(self.ball_diameter),
                 f"{named('clearance')} must be at most {MAX_CLEARANCE_FRACTION} of the ball diameter "
                 "(d_o - d_i) / 2, far above any catalogue clearance [m]",
+                clearance,
+            ),
+            (
+                clearance < -MAX_PRELOAD_FRACTION * xp.asarray(self.ball_diameter),
+                f"{named('clearance')} must be at least -{MAX_PRELOAD_FRACTION} of the ball "
+                "diameter (d_o - d_i) / 2: a negative clearance is a preload, and a deeper one "
+                "alone loads the elements near ISO 76's permissible contact stress [m]",
                 clearance,
             ),
         ]
@@ -205,6 +226,8 @@ class BallBearing(AbstractBearing):
     """
 
     life_exponent: ClassVar[float] = 3.0
+    raceway_exponent: ClassVar[int] = 3
+    weibull_slope: ClassVar[float] = 10.0 / 9.0
 
     @classmethod
     def from_geometry(
@@ -237,7 +260,7 @@ class BallBearing(AbstractBearing):
             ball_diameter, pitch_diameter, groove_inner, groove_outer, youngs_modulus, poisson_ratio
         )
         _checks.check(
-            lambda xp, z, d, dm: [_checks.ball_count(xp, z), _checks.balls_fit(xp, z, d, dm)],
+            lambda xp, z, d, dm: [rules.ball_count(xp, z), rules.balls_fit(xp, z, d, dm)],
             n_balls, ball_diameter, pitch_diameter,
         )
         d_i, d_o = _race_diameters(pitch_diameter, ball_diameter)
@@ -275,6 +298,8 @@ class RollerBearing(AbstractBearing):
 
     roller_length: jax.Array
     life_exponent: ClassVar[float] = 10.0 / 3.0
+    raceway_exponent: ClassVar[int] = 4
+    weibull_slope: ClassVar[float] = 9.0 / 8.0
 
     def __init__(
         self,
@@ -335,11 +360,11 @@ class RollerBearing(AbstractBearing):
         )
         _checks.check(
             lambda xp, z, d, dm, length: [
-                _checks.ball_count(xp, z, "n_rollers"),
+                rules.ball_count(xp, z, "n_rollers"),
                 _checks.positive(xp, "roller_diameter", d, "m"),
-                _checks.pitch_exceeds_ball(xp, dm, d),
+                rules.pitch_exceeds_ball(xp, dm, d),
                 _checks.positive(xp, "roller_length", length, "m"),
-                _checks.balls_fit(xp, z, d, dm, element="roller"),
+                rules.balls_fit(xp, z, d, dm, element="roller"),
             ],
             n_rollers, d, dm, length,
         )
@@ -411,7 +436,7 @@ class Impact(eqx.Module):
     ) -> Impact:
         """Stiffness of two spheres (or circular arcs) of radii R_j, R_k [m] of one material:
         Young's modulus E [Pa] (> 0) and Poisson's ratio nu (in (0, 0.5))."""
-        _checks.check(_checks.material, youngs_modulus, poisson_ratio)
+        _checks.check(rules.material, youngs_modulus, poisson_ratio)
         k = hertz.impact_stiffness(radius_j, radius_k, youngs_modulus, poisson_ratio)
         return cls(stiffness=k, restitution=restitution, **kwargs)
 

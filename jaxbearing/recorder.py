@@ -1,84 +1,195 @@
-"""What the solve observes and records of a mechanism, and the `Solution` made of it.
+"""A `Mechanism` as the integrator sees it, what the solve records of it, and the `Solution`
+made of that.
 
-The integrator (`jaxbearing.solve`) records columns of peaks and integrals per interval between
-its stops, whatever they hold (`solve._recording.AbstractRecorder`); `Recorder` says what they
-hold for a `Mechanism`: at one state, the forces the outputs report (`forces`: each bearing
-joint's ball loads, resultant (Eq. 28) and cage angle, each contact's normal force and
-penetration), the peak candidates and integrands of `solution.SegmentStats` (columns
-`solution.peak_column`, `solution.integral_column`), each bearing's `solution.FatigueStats`
-integrands, and the metrics of your own (`solution.AbstractRecord`). `Recorder.solution` turns
-the engine's final state into the `Solution`.
+The integrator (`jaxbearing.solve`) integrates an `AbstractSystem` and records columns of
+peaks and integrals per interval between its stops, whatever they hold (`AbstractRecorder`).
+`MechanismSystem` gives it a mechanism's equations of motion (Eq. 36) and its force elements'
+discrete states and events; `Recorder` lays out the columns from what each force element
+declares (`AbstractForceElement.peak_records`, ``integral_records``, its `observe` and
+`integrands`), adds the mechanism's own (each coordinate's displacement |q_c - q0_c|) and the
+metrics of your own (`solution.AbstractRecord`), and turns the engine's final state into the
+`Solution`, each element's records under its declared names.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .laws import bearing as bearing_law
+from .multibody.forces import BearingJoint, CircleContact
+from .multibody.mechanism import Mechanism
 from .solution import (
-    FORCE_SCALE,
-    POWER,
-    RING_POINTS_PER_BALL,
-    BearingInstant,
-    BearingSamples,
-    ContactInstant,
     Contacts,
-    FatigueStats,
+    ElementRecords,
+    Episodes,
     Instant,
+    Intervals,
+    Layout,
     Records,
     Samples,
-    SegmentStats,
     Solution,
-    integral_column,
-    peak_column,
 )
-from .solve._recording import AbstractRecorder
-
-FATIGUE_SCALARS = 5  # the scalar integrands of each bearing's `FatigueStats` (columns ``FAT_*``)
+from .solve import AbstractRecorder, AbstractSystem
 
 
-def forces(model, t, q, qd, approach_speeds, engaged) -> dict:
-    """Forces that the outputs and the metrics report: ``bearings``, a tuple with each bearing
-    joint's ``ball_loads`` (N_b,) [N], ``cage`` [rad] and ``bearing_force`` (2,) [N]; and
-    ``contact_force`` (K,) [N] and ``penetration`` (K,) [m] of the impact contacts."""
-    return {
-        "bearings": tuple(
-            _bearing_forces(model, b, t, q, qd, engaged) for b in range(len(model.bearings))
-        ),
-        **_contact_forces(model, t, q, qd, approach_speeds),
-    }
+@jax.jit
+def accelerations(model: Mechanism, t, q, qd, states):
+    """`Mechanism.accelerations` by the entry-by-entry elimination, behind its own jit, so that
+    it is traced once per solve: diffrax traces the vector field several times. XLA inlines the
+    call, so the compiled program is unchanged."""
+    return model.accelerations(t, q, qd, states, sparse=True)
 
 
-def _bearing_forces(model, b, t, q, qd, engaged) -> dict:
-    """Bearing joint ``b``'s part of `forces`."""
-    joint = model.bearings[b]
-    switches = model.engaged_by_bearing(engaged)[b]
-    loads, cage = joint.ball_loads(t, q, qd, model.q0, model.qd0, switches)
-    return {"ball_loads": loads, "cage": cage, "bearing_force": bearing_law.resultant(loads, cage)}
+class MechanismSystem(AbstractSystem):
+    """A `Mechanism` as the integrator's system: y = [q, qd], dy/dt from Eq. 36 with the force
+    elements' discrete states, their events and episodes, and the constraint drift."""
+
+    model: Mechanism
+
+    def _split(self, y):
+        n = self.model.n_coordinates
+        return y[:n], y[n:]
+
+    def initial_states(self, t0, y0) -> tuple:
+        return self.model.initial_states(t0, *self._split(y0))
+
+    def vector_field(self, t, y, states):
+        q, qd = self._split(y)
+        return jnp.concatenate([qd, accelerations(self.model, t, q, qd, states)])
+
+    def event_values(self, t, y, states):
+        return self.model.event_values(t, *self._split(y), states)
+
+    def on_events(self, t, y, states, crossed) -> tuple:
+        return self.model.on_events(t, *self._split(y), states, crossed)
+
+    def episodes(self, states):
+        return self.model.episodes(states)
+
+    def drift(self, t, y):
+        """max |Phi(q, t)| [m or rad], the constraint violation (0 without joints)."""
+        if not self.model.joints:
+            return jnp.zeros((), y.dtype)
+        return jnp.max(jnp.abs(self.model.constraints(self._split(y)[0], t)))
 
 
-def _contact_forces(model, t, q, qd, approach_speeds, contacts=None) -> dict:
-    """The impact contacts' part of `forces` (those of ``contacts``, indices; None: all)."""
-    chosen = range(len(model.contacts)) if contacts is None else contacts
-    force = [model.contacts[c].forces(t, q, qd, approach_speeds[c])[0] for c in chosen]
-    gap = [model.contacts[c].gap(q, qd)[0] for c in chosen]
-    stack = lambda x: jnp.stack(x) if x else jnp.zeros((0,), q.dtype)  # noqa: E731
-    return {"contact_force": stack(force), "penetration": stack(gap)}
-
-
-def instant(t, q, qd, f) -> Instant:
-    """The `solution.Instant` at (t, q, qd) with forces ``f`` (`forces`)."""
-    bearings = tuple(
-        BearingInstant(b["ball_loads"], b["bearing_force"], b["cage"]) for b in f["bearings"]
+def layout(model: Mechanism) -> Layout:
+    """The `solution.Layout` of ``model``'s force elements."""
+    return Layout(
+        names=model.force_names,
+        kinds=tuple(type(f).__name__ for f in model.forces),
+        bearings=model.indices(BearingJoint),
+        contacts=model.indices(CircleContact),
+        episodic=model.episodic,
+        targets=tuple(3 * c.body_k for c in model.contacts),
     )
-    contacts = tuple(
-        ContactInstant(force, gap) for force, gap in zip(f["contact_force"], f["penetration"])
-    )
-    return Instant(t, q, qd, bearings, contacts)
+
+
+class _Integral(NamedTuple):
+    """Where an element's integral record lies among the integrals: [start, start + size)."""
+
+    name: str
+    start: int
+    shape: tuple
+
+
+class _Columns(NamedTuple):
+    """Where every record lies among the engine's columns (static), from the elements'
+    declarations."""
+
+    peaks: tuple  # per element: ((name, column), ...)
+    carried: tuple  # ((element, peak name, carried name, column, shape), ...), in column order
+    displacement: int  # the first of the n coordinates' displacement columns
+    own_peaks: int  # the first column of the peak records of your own
+    n_peaks: int
+    integrals: tuple  # per element: (`_Integral`, ...)
+    own_means: int  # the first integral of the mean records of your own
+    duration: int  # the integral of 1
+    n_integrals: int
+    groups: tuple  # vertex groups: ((start, stop, element or -1 for the mechanism's), ...)
+
+
+def _declared(model: Mechanism, fatigue: bool) -> tuple:
+    """Each element's `observe` and `integrands` shapes: ((observed, integrands), ...)."""
+    n = model.n_coordinates
+    t = jax.ShapeDtypeStruct((), model.q0.dtype)
+    q = jax.ShapeDtypeStruct((n,), model.q0.dtype)
+    states = jax.eval_shape(model.initial_states, t, q, q)
+    inputs = model.inputs
+    out = []
+    for element, state in zip(model.forces, states):
+
+        def shapes(t, q, qd, state, element=element):
+            observed = element.observe(t, q, qd, state, inputs)
+            return observed, element.integrands(t, q, qd, state, observed, inputs, fatigue)
+
+        out.append(jax.eval_shape(shapes, t, q, q, state))
+    return tuple(out)
+
+
+def _columns(model: Mechanism, records: tuple, fatigue: bool) -> _Columns:
+    """The `_Columns` of ``model``'s elements, then its displacements, then ``records``."""
+    declared = _declared(model, fatigue)
+    peaks, carried, groups, column = [], [], [], 0
+    for e, (element, (observed, _)) in enumerate(zip(model.forces, declared)):
+        mine = []
+        for record in element.peak_records:
+            _check_peak(element, record, observed)
+            mine.append((record.name, column))
+            if record.carried is not None:
+                carried.append((e, record.name, record.carried, column, observed[record.carried].shape))
+            column += 1
+        if mine:
+            groups.append((mine[0][1], column, e))
+        peaks.append(tuple(mine))
+    displacement = column
+    own_peaks = displacement + model.n_coordinates
+    n_peaks = own_peaks + len(of_kind(records, "peak"))
+    groups.append((displacement, n_peaks, -1))
+    integrals, start = [[] for _ in model.forces], 0
+    for want_fatigue in (False, True):
+        if want_fatigue and not fatigue:
+            break
+        for e, (element, (_, integrands)) in enumerate(zip(model.forces, declared)):
+            for record in element.integral_records:
+                if record.fatigue != want_fatigue:
+                    continue
+                if record.name not in integrands:
+                    raise ValueError(
+                        f"{type(element).__name__} declares the integral record {record.name!r} "
+                        f"that its integrands() does not give (it gives {sorted(integrands)})."
+                    )
+                shape = integrands[record.name].shape
+                integrals[e].append(_Integral(record.name, start, shape))
+                start += math.prod(shape)
+        if not want_fatigue:
+            own_means, duration = start, start + len(of_kind(records, "mean"))
+            start = duration + 1
+    return _Columns(
+        tuple(peaks), tuple(carried), displacement, own_peaks, n_peaks,
+        tuple(tuple(i) for i in integrals), own_means, duration, start, tuple(groups),
+    )  # fmt: skip
+
+
+def _check_peak(element, record, observed) -> None:
+    """A `ValueError` where a peak record does not name a scalar of the element's `observe`
+    (or its carried array an array of it)."""
+    kind = type(element).__name__
+    if record.name not in observed or observed[record.name].shape != ():
+        raise ValueError(
+            f"{kind} declares the peak record {record.name!r}, which must name a scalar of its "
+            f"observe() (it gives {sorted(observed)})."
+        )
+    if record.carried is not None and record.carried not in observed:
+        raise ValueError(
+            f"{kind}'s peak record {record.name!r} carries {record.carried!r}, which its "
+            f"observe() does not give (it gives {sorted(observed)})."
+        )
 
 
 def of_kind(records, reduction: str) -> tuple:
@@ -86,271 +197,217 @@ def of_kind(records, reduction: str) -> tuple:
     return tuple((name, r) for name, r in records if r.reduction == reduction)
 
 
-def _record_values(model, records, reduction: str, t, q, qd, f) -> jax.Array:
-    """The values (U,) of the ``records`` of that ``reduction`` at (t, q, qd) with forces
-    ``f``."""
-    chosen = of_kind(records, reduction)
-    if not chosen:
-        return jnp.zeros((0,), q.dtype)
-    x = instant(t, q, qd, f)
-    return jnp.stack([r.at(model, x) for _, r in chosen])
-
-
-def _squared(b):
-    """|F|^2 [N^2] of the resultant of a bearing's forces ``b``."""
-    resultant = b["bearing_force"]
-    return jnp.sum(resultant * resultant)
-
-
-def _magnitude(b):
-    """|F| [N] of the resultant of a bearing's forces ``b``."""
-    return jnp.sqrt(_squared(b) + 1e-30)
-
-
-def fatigue_sizes(model, fatigue: bool) -> tuple[int, ...]:
-    """Lengths of each bearing joint's `FatigueStats` integrands, 5 + 2 M (M ring points);
-    empty where they are not recorded."""
-    if not fatigue:
-        return ()
-    return tuple(
-        FATIGUE_SCALARS + 2 * RING_POINTS_PER_BALL * j.bearing.n_balls for j in model.bearings
-    )
-
-
 class Recorder(AbstractRecorder):
-    """What the solve records of ``model``: the `SegmentStats` columns (peaks
-    `solution.peak_column`, then one per peak record of ``records``; integrals
-    `solution.integral_column`, one per mean record, the duration), and, where ``fatigue``, each
-    bearing joint's `FatigueStats` integrands after them (`fatigue_sizes`). ``records``:
-    ((name, `solution.AbstractRecord`), ...)."""
+    """What the solve records of ``model``: each force element's declared peaks (with their
+    carried arrays) and integrals, each coordinate's |q_c - q0_c| peak, the metrics of your own
+    (``records``: ((name, `solution.AbstractRecord`), ...)), and the duration; the fatigue
+    integrals where ``fatigue``. Columns: `_Columns`."""
 
-    model: object  # the Mechanism
+    model: Mechanism
     records: tuple = eqx.field(static=True)
     fatigue: bool = eqx.field(static=True)
+    columns: _Columns = eqx.field(static=True)
 
-    @property
-    def n_segment_peaks(self) -> int:
-        """The built-in peak columns, 2 B + K + n_coordinates (the peak records' follow)."""
-        return self._column("displacement", self.model.n_coordinates)
-
-    @property
-    def n_segment_integrals(self) -> int:
-        """Columns of `SegmentStats.integrals`: 3 B + K + the mean records + 1."""
-        return self._first_mean + len(of_kind(self.records, "mean")) + 1
-
-    @property
-    def _first_mean(self) -> int:
-        """The column of the first mean record's integral, after the contacts' (3 B + K)."""
-        m = self.model
-        return integral_column("contact_force_power", len(m.contacts), len(m.bearings))
+    def __init__(self, model: Mechanism, records: tuple, fatigue: bool):
+        self.model = model
+        self.records = records
+        self.fatigue = fatigue
+        self.columns = _columns(model, records, fatigue)
 
     @property
     def n_peaks(self) -> int:
-        return self.n_segment_peaks + len(of_kind(self.records, "peak"))
+        return self.columns.n_peaks
 
     @property
     def n_integrals(self) -> int:
-        return self.n_segment_integrals + sum(fatigue_sizes(self.model, self.fatigue))
+        return self.columns.n_integrals
 
     @property
     def carried_shapes(self) -> tuple:
-        return tuple((j.bearing.n_balls,) for j in self.model.bearings)
-
-    def _column(self, kind: str, index: int) -> int:
-        return peak_column(kind, index, len(self.model.bearings), len(self.model.contacts))
+        return tuple(c[4] for c in self.columns.carried)
 
     @property
     def carried_columns(self) -> tuple:
-        return tuple(self._column("ball_load", b) for b in range(len(self.model.bearings)))
+        return tuple(c[3] for c in self.columns.carried)
 
     @property
     def vertex_groups(self) -> tuple:
-        split = self._column("contact_force", 0)  # the bearings' columns, then the others
-        return ((0, split), (split, self.n_peaks))
+        return tuple((start, stop) for start, stop, _ in self.columns.groups)
 
     @property
-    def contact_columns(self) -> tuple:
-        return tuple(self._column("contact_force", c) for c in range(len(self.model.contacts)))
-
-    def observe(self, t, y, switches):
-        """`forces` at (t, y) with the ``switches`` (approach speeds, engaged balls)."""
-        n = self.model.n_coordinates
-        return forces(self.model, t, y[:n], y[n:], *switches)
-
-    def peaks(self, t, y, f):
-        """Each bearing's largest ball load and |F|, each contact's force, each |q_j - q0_j|,
-        each peak record's value; carried: each bearing's ball loads."""
+    def episode_columns(self) -> tuple:
         model = self.model
-        q, qd = y[: model.n_coordinates], y[model.n_coordinates :]
-        bearings = [jnp.stack([jnp.max(b["ball_loads"]), _magnitude(b)]) for b in f["bearings"]]
-        values = jnp.concatenate(
-            [
-                *bearings,
-                f["contact_force"],
-                jnp.abs(q - model.q0),
-                _record_values(model, self.records, "peak", t, q, qd, f),
-            ]
+        return tuple(
+            dict(self.columns.peaks[i])[model.forces[i].episode_peak] for i in model.episodic
         )
-        return values, tuple(b["ball_loads"] for b in f["bearings"])
 
-    def integrands(self, t, y, f):
-        """The `SegmentStats` integrands, then the `FatigueStats` ones where recorded."""
-        model = self.model
-        q, qd = y[: model.n_coordinates], y[model.n_coordinates :]
-        bearings = [
-            jnp.stack(
-                [
-                    _squared(b),
-                    jnp.sum((b["ball_loads"] / FORCE_SCALE) ** POWER),
-                    (_magnitude(b) / FORCE_SCALE) ** POWER,
-                ]
-            )
-            for b in f["bearings"]
+    def _split(self, y):
+        n = self.model.n_coordinates
+        return y[:n], y[n:]
+
+    def observe(self, t, y, states) -> tuple:
+        """Each force element's `observe` at (t, y) with its state, ``model.forces`` order."""
+        q, qd = self._split(y)
+        inputs = self.model.inputs
+        return tuple(f.observe(t, q, qd, s, inputs) for f, s in zip(self.model.forces, states))
+
+    def _instant(self, t, q, qd, observed) -> Instant:
+        return Instant(t, q, qd, observed, layout(self.model))
+
+    def _own_values(self, reduction: str, t, q, qd, observed) -> list:
+        """The values of the records of your own of that ``reduction`` at (t, q, qd)."""
+        chosen = of_kind(self.records, reduction)
+        if not chosen:
+            return []
+        x = self._instant(t, q, qd, observed)
+        return [jnp.stack([r.at(self.model, x) for _, r in chosen])]
+
+    def peaks(self, t, y, states, observed):
+        """Each element's peak records, each |q_c - q0_c|, each peak record of your own; carried:
+        the peaks' carried arrays."""
+        q, qd = self._split(y)
+        values = [
+            jnp.stack([observed[e][name] for name, _ in mine])
+            for e, mine in enumerate(self.columns.peaks) if mine
+        ]  # fmt: skip
+        values += [jnp.abs(q - self.model.q0)] + self._own_values("peak", t, q, qd, observed)
+        carried = tuple(observed[e][name] for e, _, name, _, _ in self.columns.carried)
+        return jnp.concatenate(values), carried
+
+    def integrands(self, t, y, states, observed):
+        """Each element's integrands (its non-fatigue ones), the means of your own, 1, then the
+        elements' fatigue integrands where recorded (`_Columns` order)."""
+        q, qd = self._split(y)
+        inputs = self.model.inputs
+        given = [
+            f.integrands(t, q, qd, s, o, inputs, self.fatigue)
+            for f, s, o in zip(self.model.forces, states, observed)
         ]
-        contacts = (f["contact_force"] / FORCE_SCALE) ** POWER
-        means = _record_values(model, self.records, "mean", t, q, qd, f)
-        fatigue = self._fatigue_integrands(q, qd, f) if self.fatigue else []
-        return jnp.concatenate([*bearings, contacts, means, jnp.ones_like(t)[None], *fatigue])
+        parts = [[], []]
+        for e, mine in enumerate(self.columns.integrals):
+            for integral in mine:
+                fatigue = integral.start >= self.columns.duration
+                parts[fatigue].append(jnp.ravel(given[e][integral.name]))
+        means = self._own_values("mean", t, q, qd, observed)
+        return jnp.concatenate([*parts[0], *means, jnp.ones_like(t)[None], *parts[1]])
 
-    def _fatigue_integrands(self, q, qd, f) -> list:
-        """Each bearing joint's `FatigueStats` integrands, 5 + 2 M in turn (`fatigue_sizes`)."""
-        per_bearing = []
-        for joint, b in zip(self.model.bearings, f["bearings"]):
-            w = jnp.abs(joint.relative_speed(q, qd)) / (2.0 * jnp.pi)
-            balls = b["ball_loads"] / FORCE_SCALE
-            force = b["bearing_force"] / FORCE_SCALE
-            points = joint.ring_point_loads(q, qd, RING_POINTS_PER_BALL * joint.bearing.n_balls)
-            scalars = jnp.stack(
-                [
-                    jnp.ones_like(w),
-                    w,
-                    w * jnp.sum(force * force) ** (0.5 * joint.bearing.life_exponent),
-                    w * jnp.mean(balls**3),
-                    w * jnp.mean(balls ** (10.0 / 3.0)),
-                ]
-            )
-            per_bearing += [scalars, w * jnp.ravel((points / FORCE_SCALE) ** 3)]
-        return per_bearing
+    def peaks_at(self, group, interpolation, times, states):
+        start, stop, e = self.columns.groups[group]
+        if e >= 0:
+            return self._element_vertex(e, interpolation, times, states)
+        return self._mechanism_vertex(interpolation, times, states), ()
 
-    def peaks_at(self, group, interpolation, times, switches):
-        if group == 0:
-            return self._bearing_vertex(interpolation, times, switches)
-        return self._other_vertex(interpolation, times, switches), ()
+    def _element_vertex(self, e, interpolation, times, states):
+        """Element ``e``'s peak records, column k at times[k] [s] of the interpolant, and its
+        carried arrays, each at its column's time."""
+        model = self.model
+        element, state, inputs = model.forces[e], states[e], model.inputs
+        ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
+        observed = jax.vmap(lambda t, y: element.observe(t, *self._split(y), state, inputs))(times, ys)
+        mine = self.columns.peaks[e]
+        values = jnp.stack([observed[name][k] for k, (name, _) in enumerate(mine)])
+        first = mine[0][1]
+        carried = tuple(
+            observed[name][column - first]
+            for owner, _, name, column, _ in self.columns.carried if owner == e
+        )  # fmt: skip
+        return values, carried
 
-    def _bearing_vertex(self, interpolation, times, switches):
-        """For each bearing joint b, its largest ball load at times[2 b] and |F| at
-        times[2 b + 1] [s] of the interpolant, (2 B,) [N], and every ball's load (N_b,) [N]
-        at times[2 b]."""
+    def _mechanism_vertex(self, interpolation, times, states):
+        """Each |q_j - q0_j| at times[j], each peak record of your own at times[n + u] [s] of
+        the interpolant: (n + U,)."""
         model = self.model
         n = model.n_coordinates
-        ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
-        values, loads = [], []
-        for b in range(len(model.bearings)):
-            f = jax.vmap(
-                lambda t, y: _bearing_forces(model, b, t, y[:n], y[n:], switches[1])
-            )(times[2 * b : 2 * b + 2], ys[2 * b : 2 * b + 2])
-            first = f["ball_loads"][0]
-            values += [jnp.max(first), _magnitude(jax.tree_util.tree_map(lambda x: x[1], f))]
-            loads.append(first)
-        return jnp.stack(values), tuple(loads)
-
-    def _other_vertex(self, interpolation, times, switches):
-        """The normal force [N] of each contact c at times[c] [s] of the interpolant, each
-        |q_j - q0_j| at times[K + j], and each peak record's value at times[K + n + u]:
-        (K + n + U,)."""
-        model = self.model
-        approach, engaged = switches
-        n, k = model.n_coordinates, len(model.contacts)
-        values = []
-        for c in range(k):
-            y = interpolation.evaluate(times[c])
-            values.append(
-                _contact_forces(model, times[c], y[:n], y[n:], approach, (c,))["contact_force"]
-            )
-        values.append(jnp.abs(_coordinates_at(interpolation, n, times[k : k + n]) - model.q0))
+        values = [jnp.abs(_coordinates_at(interpolation, n, times[:n]) - model.q0)]
         peaks = of_kind(self.records, "peak")
         for u in range(len(peaks)):
-            t = times[k + n + u]
+            t = times[n + u]
             y = interpolation.evaluate(t)
-            f = forces(model, t, y[:n], y[n:], approach, engaged)
-            values.append(_record_values(model, peaks[u : u + 1], "peak", t, y[:n], y[n:], f))
+            q, qd = self._split(y)
+            observed = self.observe(t, y, states)
+            x = self._instant(t, q, qd, observed)
+            values.append(peaks[u][1].at(model, x)[None])
         return jnp.concatenate(values)
 
-    def outputs(self, t, y, switches, accelerations) -> dict:
+    def outputs(self, t, y, states, accelerations) -> dict:
         """What an output time holds: ``q``, ``qd``, ``qdd`` (``accelerations``), ``drift``
-        (max |Phi(q, t)|), ``approach`` and the `forces`."""
+        (max |Phi(q, t)|) and each element's quantities (``elements``)."""
         model = self.model
-        q, qd = y[: model.n_coordinates], y[model.n_coordinates :]
+        q, qd = self._split(y)
         drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
-        out = {"q": q, "qd": qd, "qdd": accelerations, "drift": drift, "approach": switches[0]}
-        out.update(self.observe(t, y, switches))
-        return out
+        return {"q": q, "qd": qd, "qdd": accelerations, "drift": drift, "elements": self.observe(t, y, states)}
 
     def solution(self, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solution:
-        """The `Solution` of a solve that ended in state ``x`` (the engine's `_core.State`) with
+        """The `Solution` of a solve that ended in state ``x`` (the engine's `solve.State`) with
         ``result``: the per-time fields from ``outputs`` (at the output times ``ts``, keyed as
-        `outputs` keys them), and from ``x`` the records: `SegmentStats` and each bearing's
-        `FatigueStats` of the intervals between the ``stops`` [s] after t0, cut at the time
-        reached (peaks 0 and their times NaN in the intervals not reached), the `Contacts`, and
-        the value of each of the ``records`` over its window."""
-        model = self.model
+        `outputs` keys them), and from ``x`` the records of the intervals between the ``stops``
+        [s] after t0, cut at the time reached (peaks 0 and their times NaN in the intervals
+        not reached), the episodes, and the value of each of the ``records`` over its
+        window."""
+        model, columns = self.model, self.columns
         t_start = jnp.minimum(jnp.concatenate([t0[None], stops[:-1]]), x.t)
         t_end = jnp.minimum(stops, x.t)
         valid = t_end > t_start  # the interval holds part of the solved span
-        reached = lambda rows, rest: jnp.where(valid[:, None], rows, rest)  # noqa: E731
+        reached = lambda rows, rest: jnp.where(valid, rows, rest)  # noqa: E731
         peaks, integrals = x.records
-        segments = SegmentStats(
-            t_start,
-            t_end,
-            reached(peaks.values, 0.0),
-            integrals[:, : self.n_segment_integrals],
-            valid,
-            reached(peaks.times, jnp.nan),
-            tuple(reached(loads, 0.0) for loads in peaks.carried),
+        values = reached(peaks.values.T, 0.0)  # (P, C)
+        times = reached(peaks.times.T, jnp.nan)
+        intervals = Intervals(t_start, t_end, integrals[:, columns.duration], valid)
+        at_peak = {}
+        for (e, name, _, column, shape), loads in zip(columns.carried, peaks.carried):
+            rows = jnp.where(valid.reshape((-1,) + (1,) * len(shape)), loads, 0.0)
+            at_peak.setdefault(e, {})[name] = rows
+        elements = []
+        for e, element in enumerate(model.forces):
+            mine = columns.peaks[e]
+            elements.append(
+                ElementRecords(
+                    {name: values[c] for name, c in mine},
+                    {name: times[c] for name, c in mine},
+                    at_peak.get(e, {}),
+                    {i.name: _integral(integrals, i) for i in columns.integrals[e]},
+                    tuple((r.name, r.power, r.scale) for r in element.integral_records if r.power is not None),
+                )
+            )
+        own_peaks = of_kind(self.records, "peak")
+        own_means = of_kind(self.records, "mean")
+        own = ElementRecords(
+            {name: values[columns.own_peaks + u] for u, (name, _) in enumerate(own_peaks)},
+            {name: times[columns.own_peaks + u] for u, (name, _) in enumerate(own_peaks)},
+            {},
+            {name: integrals[:, columns.own_means + u] for u, (name, _) in enumerate(own_means)},
         )
-        sizes = fatigue_sizes(model, self.fatigue)  # empty where not recorded: None each
-        ends = [self.n_segment_integrals + sum(sizes[:i]) for i in range(len(sizes) + 1)]
-        fatigue = [None] * len(model.bearings)
-        for b, size in enumerate(sizes):
-            stats = integrals[:, ends[b] : ends[b + 1]]
-            m = FATIGUE_SCALARS + (size - FATIGUE_SCALARS) // 2  # the outer ring's first column
-            fatigue[b] = FatigueStats(
-                t_start, t_end, stats[:, :FATIGUE_SCALARS], stats[:, FATIGUE_SCALARS:m],
-                stats[:, m:], valid,
-            )  # fmt: skip
+        n = model.n_coordinates
+        displacement = values[columns.displacement : columns.displacement + n].T
+        displacement_times = times[columns.displacement : columns.displacement + n].T
         o = outputs
-        samples = Samples(
-            q=o["q"],
-            qd=o["qd"],
-            qdd=o["qdd"],
-            bearings=tuple(
-                BearingSamples(f["ball_loads"], f["bearing_force"], f["cage"]) for f in o["bearings"]
-            ),
-            contact_forces=o["contact_force"],
-            penetrations=o["penetration"],
-            approach_speed=o["approach"],
-            drift=o["drift"],
-        )
-        records = Records(segments, _contacts(x), tuple(fatigue), x.max_drift, {}, tuple(self.records))
+        samples = Samples(o["q"], o["qd"], o["qdd"], o["drift"], o["elements"])
+        shape = layout(model)
+        episodes = _episodes(x, shape)
+        records = Records(
+            intervals, tuple(elements), displacement, displacement_times, own, episodes,
+            _contacts(episodes, shape), x.max_drift, {}, tuple(self.records),
+        )  # fmt: skip
         stats = {
             "num_steps": x.steps,
             "num_rejected_steps": x.rejected,
             "num_segments": n_segments,
             "num_events": x.events,
         }
-        targets = tuple(3 * c.body_k for c in model.contacts)
         # the time reached has no derivative (t1, or where a run failed): without a tangent it
         # stays a concrete value under jax.grad, and a failure raises in Python
         # (`solution.raise_on_failure`) instead of through a host callback
         t_final = jax.lax.stop_gradient(x.t)
-        sol = Solution(ts, samples, records, stats, result, t_final, stops[-1], model.window_start, targets)
-        # the records of your own: the columns after the built-in ones, in declared order
-        first = {"peak": self.n_segment_peaks, "mean": self._first_mean}
-        values = {}
-        for reduction, start in first.items():
-            for u, (name, record) in enumerate(of_kind(self.records, reduction)):
-                values[name] = record.read(sol, start + u)
+        sol = Solution(ts, samples, records, stats, result, t_final, stops[-1], model.window_start, shape)
+        values = {name: record.read(sol, name) for name, record in self.records}
         return dataclasses.replace(sol, records=dataclasses.replace(records, values=values))
+
+
+def _integral(integrals, integral: _Integral) -> jax.Array:
+    """An element's integral record (C, *shape) from the engine's integrals (C, I)."""
+    size = math.prod(integral.shape)
+    rows = integrals[:, integral.start : integral.start + size]
+    return rows.reshape((-1,) + integral.shape)
 
 
 def _coordinates_at(interpolation, n, times):
@@ -365,19 +422,37 @@ def _coordinates_at(interpolation, n, times):
     return jax.vmap(lambda one, t: one.evaluate(t), in_axes=(axes, 0))(cut, times)
 
 
-def _contacts(x) -> Contacts:
-    """The `Contacts` of the core's final state ``x``: its onsets (time, approach speed, contact
-    index) and their contacts' spans (end, peak force, peak time), each (max_onsets,)."""
-    time, speed, index = x.onsets
+def _episodes(x, shape: Layout) -> Episodes:
+    """The `Episodes` of the core's final state ``x``: its onsets (time, logged value, episodic
+    element) and their spans (end, peak, peak time), each (max_onsets,)."""
+    time, value, index = x.onsets
     kept = jnp.arange(time.shape[0]) < x.n_onsets
     end, peak, peak_time = x.spans
     found = kept & (peak > -jnp.inf)
-    return Contacts(
+    elements = jnp.asarray(shape.episodic or (-1,))
+    return Episodes(
         jnp.where(kept, time, jnp.nan),
-        jnp.where(kept, speed, jnp.nan),
-        jnp.where(kept, index, -1),
+        jnp.where(kept, value, jnp.nan),
+        jnp.where(kept, elements[jnp.maximum(index, 0)], -1),
         kept,
         jnp.where(kept, end, jnp.nan),
         jnp.where(found, peak, jnp.nan),
         jnp.where(found, peak_time, jnp.nan),
     )
+
+
+def _contacts(e: Episodes, shape: Layout) -> Contacts:
+    """The `Contacts` view of the episodes: those of the impact contacts, each indexed into
+    ``model.contacts``, in time order."""
+    lookup = jnp.asarray([shape.contacts.index(i) if i in shape.contacts else -1 for i in range(len(shape.kinds))] or [-1])
+    index = jnp.where(e.valid, lookup[jnp.maximum(e.element, 0)], -1)
+    mine = e.valid & (index >= 0)
+    if len(shape.contacts) != len(shape.episodic):  # other elements' episodes: moved behind
+        order = jnp.argsort(~mine, stable=True)
+        e = jax.tree_util.tree_map(lambda a: a[order], e)
+        index, mine = index[order], mine[order]
+    nan = lambda a: jnp.where(mine, a, jnp.nan)  # noqa: E731
+    return Contacts(
+        nan(e.time), nan(e.value), jnp.where(mine, index, -1), mine, nan(e.end), nan(e.peak),
+        nan(e.peak_time),
+    )  # fmt: skip

@@ -17,9 +17,9 @@ jax.config.update("jax_enable_x64", True)
 # groups are handed out first, so that neither worker ends alone on a whole group; the other
 # tests follow one by one.
 SHARED = {  # modules, each a group
-    "test_compile", "test_hertz", "test_impact",
+    "test_clearance_joint", "test_compile", "test_hertz", "test_impact",
     "test_multibody", "test_progress", "test_rollers", "test_rotor_metrics", "test_sweep",
-    "test_records", "test_two_bearings",
+    "test_records", "test_two_bearings", "test_report_draw", "test_reference_life",
 }
 MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the paper's case over 0-0.2 s, up to 2048 output times, with impact and without

@@ -181,3 +181,133 @@ def slider_crank_pin_force(t, omega, l2, l3, m_rod, j_rod, m_slider):
         r_y, _ = np.linalg.solve(a, b)
         out.append([-r_x[i], -r_y])
     return np.array(out)
+
+
+# ------------------------------------------------------------------------------ clearance joint
+
+
+def lankarani_nikravesh_ref(penetration, rate, approach_speed, stiffness, restitution):
+    """F_N = K delta^1.5 (1 + 3 (1 - e^2)/4 delta_dot / delta_dot^(-)) [N], >= 0, zero apart;
+    elastic where the approach speed is not positive."""
+    if penetration <= 0.0:
+        return 0.0
+    hysteresis = 0.75 * (1.0 - restitution**2) * rate / approach_speed if approach_speed > 0.0 else 0.0
+    return max(stiffness * penetration**1.5 * (1.0 + hysteresis), 0.0)
+
+
+def ambrosio_friction_ref(normal, slip, friction, v0, v1):
+    """-mu c_d F_N sign(v_T) [N], c_d ramping from 0 at |v_T| = v0 to 1 at v1."""
+    c_d = min(max((abs(slip) - v0) / (v1 - v0), 0.0), 1.0)
+    return -friction * c_d * normal * np.sign(slip)
+
+
+def clearance_slider_crank(t1, ts, *, omega, l2, l3, m_rod, j_rod, m_slider, clearance, radius,
+                           stiffness, restitution, friction, v0, v1, x0, xd0, rtol, atol,
+                           separation=1e-9):
+    """The slider–crank whose crank pin is a dry journal in a hole (the hole's centre on the
+    crank at P(t) = l2 [cos, sin] omega t, the crank driven; the journal's centre J on the rod's
+    end; the rod's other end pinned to a slider on the x axis), in the minimal coordinates
+    x = J (2 DOF), integrated by SciPy's DOP853 with the contact's onsets and separations as
+    terminal events (no Baumgarte terms, no constraints: a formulation independent of
+    jaxbearing's).
+
+    The rod's angle: sin phi = -J_y / l3 (cos phi > 0); its centre G = J + l3/2 u(phi), the
+    slider at x_s = J_x + l3 cos phi. Virtual work over dx gives the 2x2 system
+    [m_r J_G^T J_G + j_rod g g^T + m_s J_s^T J_s] x'' = f + g M - m_r J_G^T c_G - j_rod g h
+    - m_s J_s^T c_s, with g = dphi/dx = (0, -1/(l3 cos phi)), phi'' = g . x'' + h,
+    h = tan(phi) phi'^2, and f, M the joint's force and moment on the rod: the normal force
+    -F_N n with n = e/|e|, e = J - P, and the friction F_T along t (n turned +90 deg) at the
+    contact point J + R n (moment R F_T).
+
+    Returns a dict: ``J`` (T, 2) and ``e`` (T, 2) [m] at ``ts``, ``onsets``, ``ends`` [s] and
+    ``approach`` [m/s] of each contact, ``peaks`` [N] the largest normal force of each (the
+    dense output's maximum, refined by a bounded scalar search)."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import minimize_scalar
+
+    def crank(t):
+        c, s = np.cos(omega * t), np.sin(omega * t)
+        return l2 * np.array([c, s]), l2 * omega * np.array([-s, c])
+
+    def rod_cos(x):  # cos phi (a rejected step's trial stages may reach beyond the rod)
+        return np.sqrt(max(1.0 - (x[1] / l3) ** 2, 1e-12))
+
+    def gap(t, y):
+        x, xd = y[:2], y[2:]
+        p, pd = crank(t)
+        e, ed = x - p, xd - pd
+        d = np.hypot(*e)
+        n = e / d if d > 0.0 else np.array([1.0, 0.0])
+        tan = np.array([-n[1], n[0]])
+        phi_d = -xd[1] / (l3 * rod_cos(x))
+        slip = ed @ tan + phi_d * radius - omega * (radius + clearance)
+        return d - clearance, ed @ n, n, tan, slip
+
+    def normal_force(t, y, approach):
+        penetration, rate, *_ = gap(t, y)
+        return lankarani_nikravesh_ref(penetration, rate, approach, stiffness, restitution)
+
+    def rhs(t, y, approach):
+        x, xd = y[:2], y[2:]
+        s_phi, c_phi = -x[1] / l3, rod_cos(x)
+        phi_d = -xd[1] / (l3 * c_phi)
+        u, nn = np.array([c_phi, s_phi]), np.array([-s_phi, c_phi])
+        g = np.array([0.0, -1.0 / (l3 * c_phi)])
+        h = s_phi / c_phi * phi_d**2
+        jac_g = np.eye(2) + 0.5 * l3 * np.outer(nn, g)
+        c_g = 0.5 * l3 * (nn * h - u * phi_d**2)
+        jac_s = np.array([1.0, 0.0]) - l3 * s_phi * g
+        c_s = -l3 * (c_phi * phi_d**2 + s_phi * h)
+        penetration, rate, n, tan, slip = gap(t, y)
+        f_n = lankarani_nikravesh_ref(penetration, rate, approach, stiffness, restitution)
+        f_t = ambrosio_friction_ref(f_n, slip, friction, v0, v1)
+        force, moment = -f_n * n + f_t * tan, radius * f_t
+        mass = m_rod * jac_g.T @ jac_g + j_rod * np.outer(g, g) + m_slider * np.outer(jac_s, jac_s)
+        rhs_ = force + g * moment - m_rod * jac_g.T @ c_g - j_rod * g * h - m_slider * jac_s * c_s
+        return np.concatenate([xd, np.linalg.solve(mass, rhs_)])
+
+    y = np.concatenate([x0, xd0]).astype(float)
+    t, touching, approach = 0.0, False, 0.0
+    onsets, ends, speeds, peaks, pieces = [], [], [], [], []
+    while t < t1:
+        if touching:
+            def event(t, y):
+                return gap(t, y)[0] + separation
+            event.direction = -1
+        else:
+            def event(t, y):
+                return gap(t, y)[0]
+            event.direction = 1
+        event.terminal = True
+        with np.errstate(over="ignore", invalid="ignore"):  # a rejected step's trial stages
+            run = solve_ivp(lambda t, y, a=approach: rhs(t, y, a), (t, t1), y, method="DOP853",
+                            rtol=rtol, atol=atol, events=event, dense_output=True, max_step=1e-3)
+        assert run.status >= 0, run.message
+        pieces.append((t, run.t[-1], run.sol))
+        if touching:  # the contact's peak: the dense output's largest normal force, refined
+            grid = np.linspace(t, run.t[-1], 2001)
+            forces = [normal_force(s, run.sol(s), approach) for s in grid]
+            k = int(np.argmax(forces))
+            lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+            best = minimize_scalar(lambda s: -normal_force(s, run.sol(s), approach), bounds=(lo, hi),
+                                   method="bounded", options={"xatol": 1e-14})
+            peaks.append(max(forces[k], -best.fun))
+        t, y = run.t[-1], run.y[:, -1]
+        if run.status == 1:
+            if touching:
+                ends.append(t)
+            else:
+                approach = gap(t, y)[1]
+                onsets.append(t)
+                speeds.append(approach)
+            touching = not touching
+    out = []
+    for s in np.asarray(ts, float):
+        for start, end, dense in pieces:
+            if start <= s <= end:
+                out.append(dense(s)[:2])
+                break
+    joint = np.array(out)
+    pins = np.array([crank(s)[0] for s in ts])
+    return dict(J=joint, e=joint - pins, onsets=np.array(onsets), ends=np.array(ends),
+                approach=np.array(speeds), peaks=np.array(peaks))

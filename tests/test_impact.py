@@ -18,7 +18,7 @@ import jaxbearing as jb  # noqa: E402
 from jaxbearing.multibody import Body, CircleContact, Mechanism, Translational  # noqa: E402
 
 import helpers as ref  # noqa: E402
-from jaxbearing.solve._core import SEPARATION_OFFSET  # noqa: E402
+from jaxbearing.multibody.forces import SEPARATION_OFFSET  # noqa: E402
 
 K_PAPER = 1.07e10  # paper's K_d for two 10 mm steel circles [N/m^1.5]
 
@@ -104,7 +104,7 @@ def two_spheres(restitution):
         (Translational(0), Translational(1)),
         [0.0, 0.0, 0.0, 2 * R + GAP, 0.0, 0.0],
         [V0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        contacts=(CircleContact(0, (0.0, 0.0), R, 1, (0.0, 0.0), R, imp),),
+        forces=(CircleContact(0, (0.0, 0.0), R, 1, (0.0, 0.0), R, imp),),
     )
     return model, float(imp.stiffness)
 

@@ -1,7 +1,7 @@
 """Metrics come from the solution, not from the output times (issue 11): `simulate` records per
-interval between its stops the peaks and integrals over every accepted step's interpolant
-(`SegmentStats`), so a metric has the same value whatever ``ts`` is, windows need stops as
-edges, and the smooth metrics keep exact derivatives (checked in tests/test_derivatives.py)."""
+interval between its stops the peaks and integrals over every accepted step's interpolant (each
+element's `ElementRecords`), so a metric has the same value whatever ``ts`` is, windows need
+stops as edges, and the smooth metrics keep exact derivatives (tests/test_derivatives.py)."""
 
 import diffrax
 import equinox as eqx
@@ -13,7 +13,7 @@ import pytest
 import jaxbearing as jb
 from jaxbearing import metrics as M
 from jaxbearing import report
-from jaxbearing.solution import INT_TIME, map_per_time
+from jaxbearing.solution import map_per_time
 
 T1 = 0.02  # [s] short run of the paper's case: ball engagements and releases (no impact yet)
 EDGE = 0.013  # [s] a window edge that is no stop of `dense`
@@ -29,7 +29,7 @@ def model():
 def dense(model):
     """The solve sampled 1 µs apart: 10 runs of `coarse`'s compiled solve (up to 2048 output
     times share it), each sampling a tenth of the 20001 times; the solution's own records
-    (segments, contacts) are those of any run, as they do not depend on the output times."""
+    (intervals, element records, contacts) are those of any run, as they do not depend on the output times."""
     runs = [jb.simulate(model, T1, part) for part in np.array_split(np.linspace(0.0, T1, 20001), 10)]
     for run in runs[1:]:
         assert int(run.num_steps) == int(runs[0].num_steps)  # the same solve, sampled elsewhere
@@ -43,19 +43,19 @@ def coarse(model):
 
 
 def span(sol):
-    s = sol.segments
-    return float(jnp.sum(jnp.where(s.valid, s.integrals[:, INT_TIME], 0.0)))
+    s = sol.intervals
+    return float(jnp.sum(jnp.where(s.valid, s.duration, 0.0)))
 
 
 def test_intervals_cover_the_span_exactly(dense):
-    s = dense.segments
+    s = dense.intervals
     valid = np.asarray(s.valid)
     starts, ends = np.asarray(s.t_start)[valid], np.asarray(s.t_end)[valid]
     assert starts[0] == 0.0 and ends[-1] == T1
     np.testing.assert_array_equal(starts[1:], ends[:-1])  # contiguous
     # the steps recorded in each interval tile it: steps end at the stops, and a step across an
     # event counts only up to the event
-    duration = np.asarray(s.integrals)[valid, INT_TIME]
+    duration = np.asarray(s.duration)[valid]
     np.testing.assert_allclose(duration, ends - starts, rtol=1e-12)
     assert span(dense) == pytest.approx(T1, rel=1e-12)
     # one entry per stop (STOP and T1), however many steps and events
@@ -172,7 +172,7 @@ def test_window_edges_must_be_stops(model, coarse):
         M.rms_bearing_force(coarse, t_min=EDGE)
     # under jit the edge cannot be checked in Python: NaN, never an approximate number
     assert np.isnan(float(jax.jit(lambda s: M.rms_bearing_force(s, t_min=EDGE))(coarse)))
-    with pytest.raises(ValueError, match="p = 16"):
+    with pytest.raises(TypeError, match="has no field p"):  # its order is the record's (16)
         M.smooth_peak_ball_load(coarse, p=8.0)
     sol = jb.simulate(eqx.tree_at(lambda m: m.window_start, model, EDGE), T1, jnp.linspace(0.0, T1, 201))
     before, after = M.rms_bearing_force(sol, 0.0, EDGE), M.rms_bearing_force(sol, t_min=EDGE)

@@ -21,6 +21,7 @@ import jaxbearing as jb  # noqa: E402
 from jaxbearing.multibody import (  # noqa: E402
     GROUND,
     Body,
+    ContactState,
     Gravity,
     Mechanism,
     Revolute,
@@ -118,7 +119,7 @@ def double_pendulum():
         ),
         q0,
         qd0,
-        gravity=Gravity(),
+        forces=(Gravity(),),
     )
     return jb.simulate(model, 1.0, DP_TS, stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-12))
 
@@ -304,7 +305,7 @@ def test_solve_spd_entries_matches_lapack(n, pattern):
 def _pendulum_model():
     q0, qd0 = double_pendulum_state(*TH0)
     joints = (Revolute(GROUND, (0.0, 0.0), 0, (-L1 / 2, 0.0)), Revolute(0, (L1 / 2, 0.0), 1, (-L2 / 2, 0.0)))
-    return Mechanism((Body(M1, J1), Body(M2, J2)), joints, q0, qd0, gravity=Gravity())
+    return Mechanism((Body(M1, J1), Body(M2, J2)), joints, q0, qd0, forces=(Gravity(),))
 
 
 @pytest.mark.parametrize("sparse", [False, True], ids=["dense", "sparse"])
@@ -318,14 +319,19 @@ def test_accelerations_solve_the_augmented_system(case, sparse):
     t = jnp.asarray(0.013)
     q = model.q0 + 1e-5 * jnp.arange(float(n))
     qd = model.qd0 + 1e-2 * jnp.cos(jnp.arange(float(n)))
-    args = (jnp.ones(len(model.contacts)), jnp.ones(model.n_switched_balls, bool))
-    forces = np.asarray(model.generalized_forces(t, q, qd, *args))
+    # every contact touching with an approach speed of 1 m/s, every ball of a bearing engaged
+    states = tuple(
+        ContactState(jnp.ones(()), jnp.ones((), bool)) if isinstance(s, ContactState)
+        else None if s is None else jnp.ones_like(s)
+        for s in model.initial_states(t, q, qd)
+    )  # fmt: skip
+    forces = np.asarray(model.generalized_forces(t, q, qd, states))
     jac, rhs = (np.asarray(x) for x in model.constraint_rhs(q, qd, t))
     m = rhs.shape[0]
     mass = np.diag(1.0 / np.asarray(model.inverse_mass))
     augmented = np.block([[mass, jac.T], [jac, np.zeros((m, m))]])
     expected = np.linalg.solve(augmented, np.concatenate([forces, rhs]))[:n]
-    got = np.asarray(model.accelerations(t, q, qd, *args, sparse=sparse))
+    got = np.asarray(model.accelerations(t, q, qd, states, sparse=sparse))
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
@@ -346,3 +352,17 @@ def test_force_elements_and_joints_share_one_abstract_interface():
 
     with pytest.raises(TypeError):
         Incomplete()
+
+
+def test_every_force_element_goes_in_one_list():
+    """A `CircleContact` passed in ``forces=`` was accepted and failed deep inside diffrax (its
+    approach speed was captured only for a separate ``contacts=`` list). There is one list now:
+    a contact in it is a contact (its events and episodes the solve's), the views find it, and
+    the old keyword is no more."""
+    m = jb.cases.xu2014()
+    contact = m.contacts[0]
+    again = Mechanism(m.bodies, m.joints, m.q0, m.qd0, forces=(m.forces[2], m.forces[0], m.forces[1]))
+    assert again.contacts == (contact,) and again.bearings == (m.forces[0],)
+    assert again.event_counts() == (1, 8, 0) and again.episodic == (0,)
+    with pytest.raises(TypeError, match="contacts"):
+        Mechanism(m.bodies, m.joints, m.q0, m.qd0, forces=m.forces[:2], contacts=(contact,))

@@ -142,7 +142,7 @@ def cradle():
         [Translational(k) for k in range(3)],
         [0.0, 0.0, 0.0, pitch, 0.0, 0.0, 2 * pitch, 0.0, 0.0],
         [1.0] + [0.0] * 8,
-        contacts=tuple(CircleContact(k, (0.0, 0.0), r, k + 1, (0.0, 0.0), r, impact) for k in (0, 1)),
+        forces=tuple(CircleContact(k, (0.0, 0.0), r, k + 1, (0.0, 0.0), r, impact) for k in (0, 1)),
     )
 
 

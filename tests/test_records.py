@@ -6,7 +6,6 @@ central differences."""
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 import pytest
 
 import jaxbearing as jb

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import jaxbearing as jb
+from jaxbearing.multibody import CircleContact, ContactState
 
 
 def _load_baseline():
@@ -66,8 +67,11 @@ def test_equations_of_motion_agree_state_by_state():
 
     @eqx.filter_jit
     def reference(t, q, qd, approach):
+        # the balls with delta_r > 0 engaged, the contact touching since approach [m/s]
+        states = list(model.initial_states(t, q, qd))
+        states[model.indices(CircleContact)[0]] = ContactState(approach, jnp.asarray(True))
         return (
-            model.accelerations(t, q, qd, jnp.stack([approach])),
+            model.accelerations(t, q, qd, tuple(states)),
             joint.ball_loads(t, q, qd, model.q0, model.qd0)[0],
             contact.forces(t, q, qd, approach)[0],
         )

@@ -52,6 +52,7 @@ METRICS = {  # window from t = 0: the standard one starts at 0.04 s
     # life needs the model as well: each member's own (LifeMetric.value(sol, model))
     "l10_iso_hours": jb.life.metric("iso", t_min=0.0),
     "l10_lp_mrev": jb.life.metric("lp", unit="mrev", t_min=0.0, **GROOVES),
+    "l10_reference_mrev": jb.life.metric("reference", unit="mrev", t_min=0.0, **GROOVES),
 }
 CLEARANCES = [20e-6, 40e-6, 60e-6]
 DAMPINGS = [300.0, 1e8]  # the second fails at MAX_STEPS
@@ -185,6 +186,7 @@ def single(c, d):
     values = {name: METRICS[name](sol) for name in ("peak_ball_load", "rms_bearing_force")}
     values["l10_iso_hours"] = jb.life.iso_life(sol, m, t_min=0.0).l10_hours
     values["l10_lp_mrev"] = jb.life.lp_life(sol, m, t_min=0.0, **GROOVES).l10
+    values["l10_reference_mrev"] = jb.life.reference_life(sol, m, t_min=0.0, **GROOVES).l10
     return values, sol.result._value
 
 
@@ -450,8 +452,8 @@ def test_corrupted_files_are_named(tmp_path):
 
 
 def test_bad_arguments_are_rejected_before_running():
-    with pytest.raises(ValueError, match=r"point 1 \(bearing.clearance = -1e-05.*clearance must be zero or positive"):
-        run({"bearing.clearance": [1e-5, -1e-5]})
+    with pytest.raises(ValueError, match=r"point 1 \(bearing.clearance = -0.0001.*clearance must be at least -0.01 of the ball diameter"):
+        run({"bearing.clearance": [1e-5, -1e-4]})
     with pytest.raises(ValueError, match="does not exist"):
         run({"bearing.nonsense": [1.0]})
     with pytest.raises(TypeError, match="throw"):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -20,6 +21,7 @@ import textwrap
 import threading
 from typing import ClassVar
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -27,7 +29,7 @@ import xarray as xr
 
 import jaxbearing as jb
 from jaxbearing import metrics as M
-from jaxbearing._sweep import kernel
+from jaxbearing._sweep import fingerprint, kernel, store
 
 T1 = 0.01
 POINTS = {"bearing.clearance": [20e-6, 40e-6]}
@@ -156,8 +158,10 @@ def test_a_window_edge_known_before_the_solve_becomes_a_stop(finished):
     ds, out = finished
     assert json.loads(ds.attrs["simulate_kwargs"])["window_edges"] == [LATE]
     labels = json.loads((out / "manifest.json").read_text())["metrics"]
+    hidden = labels.pop("hidden")  # a class of this file's: its code's digest too
     assert labels == {"peak_ball_load": "peak_ball_load(t_min=0.0)", "late_peak": f"peak_ball_load(t_min={LATE})",
-                      "hidden": "HiddenWindow()", "max_drift": "max_drift"}
+                      "max_drift": "max_drift"}
+    assert re.fullmatch(r"HiddenWindow\(\) \[code [0-9a-f]{16}\]", hidden), hidden
     for clearance, value in zip(POINTS["bearing.clearance"], ds.late_peak.values):
         model = rotor(clearance)
         sol = jb.simulate_one_loop(model, T1, options=jb.SolveOptions(window_edges=(LATE,)))
@@ -165,6 +169,99 @@ def test_a_window_edge_known_before_the_solve_becomes_a_stop(finished):
         # the step control may turn into other steps within the solver's relative tolerance
         np.testing.assert_allclose(value, M.peak_ball_load(sol, t_min=LATE), rtol=1e-6)
 
+
+
+def largest(i):
+    """The largest |q_i| [m or rad] over the run: a metric of a lambda that closes over ``i``;
+    every one is labelled ``Peak(largest.<locals>.<lambda>)``, whatever ``i``."""
+    return M.Peak(lambda model, x: jnp.abs(x.q[i]))
+
+
+OWN = {  # metrics of this file's code (`test_a_metric_s_code_digest_is_the_same_in_another_process`)
+    "lambda": M.Peak(lambda model, x: jnp.abs(x.q[0]) + len({"a", "b"})),
+    "closure": largest(2),
+    "class": HiddenWindow(),
+}
+
+
+def stopped_after_the_first_chunk(monkeypatch, **kwargs):
+    """Run the sweep with ``kwargs`` and stop it (KeyboardInterrupt) once its first chunk is
+    written: a process killed there."""
+    save = store.save_chunk
+
+    def save_then_stop(path, *args):
+        save(path, *args)
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(store, "save_chunk", save_then_stop)
+        with pytest.raises(KeyboardInterrupt):
+            run(**kwargs)
+
+
+OTHER_FUNCTION = r"was started with other arguments: metrics differs \(metrics own: stored " \
+                 r"\"Peak\(.*<lambda>\) \[code [0-9a-f]{16}\]\", now \"Peak\(.*<lambda>\) \[code [0-9a-f]{16}\]\"\)\. " \
+                 r"A metric's \[code \.\.\.\] is a digest of what it computes"
+
+
+@contextlib.contextmanager
+def nothing_computed(monkeypatch):
+    """Within its block, fail the test if a chunk is computed."""
+    with monkeypatch.context() as patch:
+        patch.setattr(kernel.ChunkRunner, "__call__", lambda *_: pytest.fail("a chunk was computed"))
+        yield
+
+
+def test_another_function_of_the_same_label_never_takes_a_finished_folder_s_values(tmp_path, monkeypatch):
+    """Two ``Peak(lambda model, x: ...)`` over different quantities are both labelled
+    ``Peak(<lambda>)``: before, a sweep of the second into the first's finished folder returned
+    the first's values. The manifest records a digest of each metric's code beside its label:
+    the other function is refused before anything is computed."""
+    first, second = (lambda model, x: jnp.abs(x.q[0])), (lambda model, x: jnp.abs(x.q[1]))
+    run(metrics={"own": M.Peak(first)}, out=tmp_path)
+    with nothing_computed(monkeypatch), pytest.raises(ValueError, match=OTHER_FUNCTION):
+        run(metrics={"own": M.Peak(second)}, out=tmp_path)
+
+
+def test_a_sweep_resumed_with_another_function_of_the_same_label_is_refused(tmp_path, monkeypatch):
+    """A sweep of one lambda stopped after its first chunk, resumed with the same lambda closing
+    over another index (the same label, the same bytecode): before, the resume filled the rest
+    of the grid with the other quantity's values. Refused before anything is computed; the same
+    function made again (as a notebook's cell run again makes it) resumes, computing the rest
+    only, and equals an uninterrupted sweep."""
+    stopped_after_the_first_chunk(monkeypatch, metrics={"own": largest(0)}, out=tmp_path)
+    assert [p.name for p in tmp_path.glob("chunk_*")] == ["chunk_00000.npz"]
+    with nothing_computed(monkeypatch), pytest.raises(ValueError, match=OTHER_FUNCTION):
+        run(metrics={"own": largest(1)}, out=tmp_path)
+    resumed = run(metrics={"own": largest(0)}, out=tmp_path)
+    assert resumed.attrs["sweep_computed_points"] == 1
+    whole = run(metrics={"own": largest(0)})
+    # another compiled program (another function object): its rounding, within the solver's error
+    np.testing.assert_allclose(resumed.own.values, whole.own.values, rtol=1e-9)
+    assert np.ptp(whole.own.values) > 0  # two members, two values
+
+
+def test_a_metric_s_code_digest_is_the_same_in_another_process():
+    """The digest depends on what the metric computes alone, never on the process: the same in
+    processes of other hash seeds (the order of sets and dicts) for a lambda, a closure and a
+    metric class of this file's; two quantities have two digests; jaxbearing's own metrics have
+    none (their labels name them)."""
+    here = {name: fingerprint.labelled(metric) for name, metric in OWN.items()}
+    assert len({label.split(" [code ")[1] for label in here.values()}) == len(OWN)
+    assert fingerprint.labelled(largest(1)) != here["closure"]
+    jitted = [M.Peak(jax.jit(f)) for f in (lambda model, x: x.q[0], lambda model, x: x.q[1])]  # what it wraps
+    assert fingerprint.code_digest(jitted[0]) != fingerprint.code_digest(jitted[1])
+    assert fingerprint.labelled(M.peak_ball_load.replace(t_min=0.0)) == "peak_ball_load(t_min=0.0)"
+    assert fingerprint.code_digest(jb.life.metric("lp")) is None
+    code = """
+        from jaxbearing._sweep import fingerprint
+        print(repr({name: fingerprint.labelled(metric) for name, metric in t.OWN.items()}))
+        """
+    for seed in ("1", "2"):
+        job = start_process(code, PYTHONHASHSEED=seed)
+        out, err = job.communicate(timeout=120)
+        assert job.returncode == 0, err[-3000:]
+        assert eval(out.strip().splitlines()[-1]) == here
 
 def test_a_read_only_folder_is_refused_before_computing(tmp_path, no_computing):
     with read_only(tmp_path), pytest.raises(
@@ -207,8 +304,9 @@ def test_a_missing_results_file_in_a_read_only_folder_is_named(finished, tmp_pat
         run(out=copy)
 
 
-def start_process(body: str):
-    """A python process (CPU) that imports this file as ``t`` and runs ``body``."""
+def start_process(body: str, **env):
+    """A python process (CPU) that imports this file as ``t`` and runs ``body`` (``env``: more
+    environment variables)."""
     preamble = f"""
 import pathlib, sys, time
 sys.path.insert(0, {TESTS!r})
@@ -216,7 +314,7 @@ import jax
 jax.config.update("jax_enable_x64", True)
 import test_sweep_folder as t
 """
-    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    env = dict(os.environ, JAX_PLATFORMS="cpu", **env)
     return subprocess.Popen([sys.executable, "-c", preamble + textwrap.dedent(body)], env=env,
                             text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 

@@ -13,7 +13,8 @@ import optax
 import pytest
 
 import jaxbearing as jb
-from jaxbearing import _checks, config
+from jaxbearing import _checks
+from jaxbearing.cli import config
 from jaxbearing.multibody import (
     GROUND,
     Body,
@@ -102,8 +103,8 @@ BAD_INPUTS = [
     (lambda: from_geometry(poisson_ratio=-0.1), r"poisson_ratio must lie in \(0\.0, 0\.5\); got -0\.1\."),
     (lambda: impact_from_geometry(poisson_ratio=0.7), r"poisson_ratio must lie in \(0\.0, 0\.5\); got 0\.7\."),
     # bearing geometry
-    (lambda: bearing(clearance=-1e-6), r"clearance must be zero or positive \[m\]; got -1e-06\."),
-    (lambda: jb.cases.xu2014(clearance=-1e-5), r"clearance must be zero or positive \[m\]; got -1e-05\."),
+    (lambda: bearing(clearance=-1e-4), r"clearance must be at least -0\.01 of the ball diameter \(d_o - d_i\) / 2: a negative clearance is a preload.*\[m\]; got -0\.0001\."),
+    (lambda: jb.cases.xu2014(clearance=-1e-4), r"clearance must be at least -0\.01 of the ball diameter \(d_o - d_i\) / 2: a negative clearance is a preload.*\[m\]; got -0\.0001\."),
     (lambda: jb.cases.xu2014(clearance=0.5),
      r"clearance must be at most 0\.1 of the ball diameter \(d_o - d_i\) / 2, far above any catalogue "
      r"clearance \[m\]; got 0\.5\."),
@@ -156,8 +157,9 @@ BAD_INPUTS = [
     (lambda: jb.Mechanism(jb.cases.four_bar().bodies, jb.cases.four_bar().joints
                           + (Revolute(2, (0.125, 0.0), 1, (0.14, 0.0)),), jb.cases.four_bar().q0,
                           forces=jb.cases.four_bar().forces, body_names=("crank", "coupler", "rocker")),
-     r"joint 4 \(Revolute, rocker–coupler\) joins the two bodies of force 0 \(BearingJoint\) at its race centres: "
-     r"the ideal pin would carry the load and the bearing none\. Remove the Revolute: the BearingJoint is the joint\."),
+     r"joint 4 \(Revolute, rocker–coupler\) joins the two bodies of force 0 \(BearingJoint\) at the points it "
+     r"centres: the ideal pin would carry the load and the BearingJoint none\. Remove the Revolute: the "
+     r"BearingJoint is the joint\."),
     # time span
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.0),
      r"t1 must be greater than t0 = 0\.0 s; got t1 = 0\.0 s\."),
@@ -245,13 +247,16 @@ BAD_INPUTS = [
      r"ball_diameter must be finite \(not NaN or infinite\); got nan\."),
     # a contact switched on while its surfaces overlap
     (lambda: jb.simulate(jb.cases.xu2014(contact_on=0.0), 0.005),  # the solve of simulate_with
-     r"contact 0 is switched on at t0 while its surfaces overlap \(penetration \[m\]\): start it apart, "
+     r"force 2 \(CircleContact, slider–target\) is switched on at t0 while its surfaces overlap "
+     r"\(penetration \[m\]\): start it apart, "
      r"or switch it on later \(active_from\) when they are apart; got 0\.01\."),
     # window edges, a metric's coordinate
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, options=jb.SolveOptions(window_edges=0.005)),
      r"window_edges must be a tuple of finite times \[s\] \(e\.g\. \(0\.09,\)\); got 0\.005\."),
     (lambda: jb.metrics.max_target_displacement(_short_solution(), coordinate=-2),
-     r"coordinate must be an index into q, an integer in \[0, 12\); got -2\."),
+     r"coordinate must be None \(the impact target's x\) or an index into q, an integer >= 0; got -2\."),
+    (lambda: jb.metrics.max_target_displacement(_short_solution(), coordinate=12),
+     r"coordinate must be an index into q, an integer in \[0, 12\); got 12\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), t_min=8e-4, t_max=2e-4),
      r"t_max must exceed t_min; got the window \[0\.0008, 0\.0002\] s\."),
     (lambda: jb.metrics.peak_ball_load(_short_solution(), [0.0, 1e-3]),
@@ -261,9 +266,9 @@ BAD_INPUTS = [
      r"t_max must be a time \[s\], one number, the window's end, or None \(to the end of the run\); "
      r"got '1 ms'\."),
     (lambda: jb.metrics.peak_time(_short_solution(), "peak_ball_load"),
-     r"metric must be an exact peak \(the metric, not its name\): jaxbearing\.metrics\.peak_ball_load, "
-     r"peak_bearing_force, peak_impact_force or max_target_displacement, or one of them \.replace\(\.\.\.\)d; "
-     r"got the string 'peak_ball_load'\."),
+     r"metric must be an exact peak \(the metric, not its name\): an ElementPeak or CoordinatePeak, e\.g\. "
+     r"jaxbearing\.metrics\.peak_ball_load, peak_bearing_force, peak_impact_force or "
+     r"max_target_displacement, or one of them \.replace\(\.\.\.\)d; got the string 'peak_ball_load'\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01, stepsize_controller=jb.default_controller(rtol=10.0)),
      r"rtol must be below 1 \(a relative error\); got rtol = 10\.0\."),
     (lambda: jb.simulate(jb.cases.xu2014(impact=False), 0.01,
@@ -348,10 +353,37 @@ def test_a_solve_names_each_parameter_by_a_path_that_reads_it():
             name = jb.paths.typed(model, jax.tree_util.keystr(path, simple=True, separator="."))
             assert jb.paths.get(model, name) is leaf, name
     assert jb.paths.typed(jb.cases.xu2014(), "forces.0.bearing.clearance") == "bearing.clearance"
-    assert jb.paths.typed(jb.cases.xu2014(), "contacts.0.impact.restitution") == "impact.restitution"
-    bad = eqx.tree_at(lambda m: m.bearings[1].bearing.clearance, _two_bearings(), -1e-6)
-    with pytest.raises(ValueError, match=r"^bearings\.1\.bearing\.clearance must be zero or positive \[m\]; got -1e-06\.$"):
+    assert jb.paths.typed(jb.cases.xu2014(), "forces.2.impact.restitution") == "impact.restitution"
+    bad = eqx.tree_at(lambda m: m.bearings[1].bearing.clearance, _two_bearings(), -1e-4)
+    with pytest.raises(ValueError, match=r"^bearings\.1\.bearing\.clearance must be at least -0\.01 of the ball diameter .*; got -0\.0001\.$"):
         _checks.raise_first(bad.parameter_violations(np))
+
+
+
+def test_parameter_paths_list_both_forms_and_a_bad_path_is_refused_with_them():
+    """`parameter_paths` lists every leaf by its general path (``bearings.i.``, ``contacts.j.``),
+    which docs/mechanisms.md recommends, and, on a model with one bearing or contact, by the short
+    path as well (before, only ``impact.restitution``, not ``contacts.0.impact.restitution``);
+    each reads its leaf. A path the model lacks is refused with that list by the sweep and by
+    `jb.sensitivity` alike (whose message listed nothing)."""
+    model = jb.cases.xu2014()
+    listed = jb.paths.parameter_paths(model)
+    for general, short in (("contacts.0.impact.restitution", "impact.restitution"),
+                           ("bearings.0.bearing.clearance", "bearing.clearance")):
+        assert listed.index(short) == listed.index(general) + 1
+        assert jb.paths.get(model, general) is jb.paths.get(model, short)
+    assert "bearings.0.outer_point" in listed and "contacts.0.active_from" in listed
+    assert not any(p.startswith("forces.0.") for p in listed)  # the bearing joint is bearings.0
+    assert len(listed) == len(set(listed))
+    leaves = {id(leaf) for leaf in jax.tree_util.tree_leaves(model) if eqx.is_array(leaf)}
+    assert {id(jb.paths.get(model, p)) for p in listed} == leaves
+    two = jb.paths.parameter_paths(_two_bearings())
+    assert "bearings.1.bearing.clearance" in two and "bearing.clearance" not in two
+    message = r"Parameter path 'bearing.clearnce' does not exist in the model .* Its parameters: .*contacts\.0\.impact\.restitution"
+    with pytest.raises(ValueError, match=message):
+        jb.sensitivity(model, jb.metrics.peak_ball_load, ["bearing.clearnce"], 0.06)
+    with pytest.raises(ValueError, match=message):
+        jb.sweep(model, {"bearing.clearnce": [4e-5]}, t1=0.06)
 
 
 def test_a_window_edge_off_the_stops_is_nan_under_jit():
@@ -376,8 +408,8 @@ def test_overconstrained_mechanism_is_rejected():
 
 def test_values_changed_after_construction_are_checked_in_simulate():
     """eqx.tree_at bypasses constructors: simulate checks the values again."""
-    model = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(), -1e-5)
-    with pytest.raises(Exception, match="bearing.clearance must be zero or positive"):
+    model = eqx.tree_at(lambda m: m.bearing.clearance, jb.cases.xu2014(), -1e-4)
+    with pytest.raises(Exception, match="bearing.clearance must be at least -0.01 of the ball diameter"):
         jb.simulate(model, 0.005, jnp.linspace(0.0, 0.005, 3))  # the compiled solve of simulate_with
 
 
@@ -389,7 +421,7 @@ def _run_with_clearance(c):
 @pytest.mark.slow  # 20 s: a vmapped compile of the paper's case
 @pytest.mark.parametrize(
     "bad, message",
-    [(-1e-5, "bearing.clearance must be zero or positive"), (np.nan, "bearing.clearance must be finite")],
+    [(-1e-4, "bearing.clearance must be at least -0.01 of the ball diameter"), (np.nan, "bearing.clearance must be finite")],
 )
 def test_traced_bad_values_are_checked_under_vmap(bad, message):
     with pytest.raises(Exception, match=message):
@@ -419,7 +451,7 @@ def test_traced_nan_output_times_are_checked():
 
 
 def test_traced_non_finite_times_are_checked():
-    from jaxbearing._checks import checked_span as _checked_span
+    from jaxbearing.solve import checked_span as _checked_span
 
     with pytest.raises(Exception, match=r"t0 and t1 must be finite \[s\]"):
         jax.jit(lambda t1: _checked_span(0.0, t1)[1])(jnp.inf)

@@ -2,6 +2,7 @@
 inputs are concrete, and is NaN when traced (jit, vmap; sweeps mark the member failed); never -inf
 or an infinite life."""
 
+import json
 import warnings
 
 import equinox as eqx
@@ -50,7 +51,10 @@ def test_a_vmapped_metric_equals_its_members_and_stays_differentiable(name, shor
     both modes."""
 
     def scaled(x):
-        where = lambda s: (s.segments.peaks, s.segments.t_start, s.segments.t_end)  # noqa: E731
+        where = lambda s: (  # noqa: E731
+            s.records.elements[0].peaks["max_element_load"], s.records.elements[0].integrals["force_squared"],
+            s.intervals.t_start, s.intervals.t_end,
+        )  # fmt: skip
         return ALL[name](eqx.tree_at(where, short, tuple(a * x for a in where(short))), t_min=None)
 
     xs = jnp.array([1.0, 3.0])
@@ -60,6 +64,69 @@ def test_a_vmapped_metric_equals_its_members_and_stays_differentiable(name, shor
     assert np.isfinite(batch).all()
     assert np.isfinite(np.asarray(jax.jit(jax.vmap(jax.grad(scaled)))(xs))).all()
     assert np.isfinite(float(jax.jvp(scaled, (xs[1],), (1.0,))[1]))
+
+
+PAST = r"The window ends at t_max = 0\.01 s, after the end of the run, t1 = 0\.005 s"
+
+
+@pytest.mark.parametrize("name", sorted(ALL))
+def test_a_window_past_the_end_of_a_successful_run_raises_or_is_nan(name, short):
+    """Issue 71: a window that ends after t1 was cut at t1 without a word (the peak of what
+    the run covered); it has no value: a ValueError, NaN under jit."""
+    with pytest.raises(ValueError, match=PAST):
+        ALL[name](short, t_min=None, t_max=0.01)
+    assert np.isnan(float(jax.jit(lambda s: ALL[name](s, t_min=None, t_max=0.01))(short)))
+    assert np.isfinite(float(ALL[name](short, t_min=None, t_max=0.005)))  # t1 itself is the end
+
+
+def test_every_window_past_the_end_of_a_successful_run_raises(short):
+    """The windows of `peak_time`, `loads_at_peak`, `peak_ball` and the lives, and a window
+    that starts after t1; traced, `peak_time` is NaN and `peak_ball` -1."""
+    model = jb.cases.xu2014(impact=True)
+    past = dict(t_min=None, t_max=0.01)
+    for read in (
+        lambda: metrics.peak_time(short, metrics.peak_ball_load, **past),
+        lambda: metrics.peak_time(short, metrics.peak_ball_load.replace(**past)),
+        lambda: metrics.loads_at_peak(short, **past),
+        lambda: metrics.peak_ball(short, **past),
+        lambda: life.iso_life(short, model, **past),
+        lambda: life.lp_life(short, model, **past),
+    ):
+        with pytest.raises(ValueError, match=PAST):
+            read()
+    assert np.isnan(float(jax.jit(lambda s: metrics.peak_time(s, metrics.peak_ball_load, **past))(short)))
+    assert int(jax.jit(lambda s: metrics.peak_ball(s, **past))(short)) == -1
+    with pytest.raises(ValueError, match=r"t_min = 0\.01 s to t_max = inf s must hold part of the solved span"):
+        metrics.peak_ball_load(short, t_min=0.01)
+
+
+def test_a_record_whose_window_lies_past_t1_is_refused_before_the_solve(compiled_functions):
+    """`Peak` and `Mean` are read inside the compiled solve, where a window past t1 can only
+    be NaN: `simulate` refuses them first, naming the record (a window that ends after t1, or
+    one that starts at or after it, by its own t_min or the model's window_start)."""
+    model = jb.cases.xu2014(impact=True)
+    load = lambda m, x: jnp.max(x.bearings[0].ball_loads)  # noqa: E731
+    cases = (
+        (metrics.Peak(load, t_max=0.01), r"records\['late'\]: its window ends at t_max = 0\.01 s, after the end of the run, t1 = 0\.005 s"),
+        (metrics.Mean(load, t_min=0.006), r"records\['late'\]: its window starts at t_min = 0\.006 s, at or after the end"),
+        (metrics.Peak(load), r"records\['late'\]: its window starts at the model's window_start = 0\.04 s, at or after"),
+    )
+    with compiled_functions() as compiles:
+        for record, message in cases:
+            with pytest.raises(ValueError, match=message):
+                jb.simulate(model, 0.005, TS, options=jb.SolveOptions(records={"late": record}))
+    assert "jit(_simulate)" not in compiles
+
+
+def test_a_sweep_s_window_past_t1_fails_its_members():
+    """In a sweep (traced) a window that ends after t1 makes the metric NaN and the member
+    failed, with the reason (it was the value over the part the run covered)."""
+    rotor = jb.cases.rotor(jb.cases.skf98205(), speed=100.0)
+    past = {"past": metrics.peak_ball_load.replace(t_min=None, t_max=0.01)}
+    with pytest.warns(RuntimeWarning, match="2 of 2 members failed"):
+        ds = jb.sweep(rotor, {"bearing.clearance": [20e-6, 40e-6]}, t1=0.005, metrics=past, progress=False)
+    assert ds.failed.values.all() and np.isnan(ds["past"].values).all()
+    assert all("ends after t1" in f["message"] for f in json.loads(ds.attrs["failures"]))
 
 
 def test_window_inside_the_span_has_a_value(short):

@@ -87,7 +87,11 @@ Output folder (``out=``)
 ``manifest.json`` records what the sweep is (its format version, ``store.FORMAT_VERSION``,
 4 since metrics are labelled by their ``AbstractMetric.label``: a folder of another version is
 refused as another sweep; parameter names and values, grid or list, metric names and labels,
-t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
+each label followed by ``[code <digest>]`` where the metric holds code of the user's (a
+function given to `metrics.Peak`, `metrics.Mean` or as a metric, a metric class of the user's):
+a digest of what it computes, its bytecode, constants, defaults, closure and the globals it
+loads (`fingerprint`), so that two functions of one label, such as two lambdas, are two
+metrics and a folder never gives one's values for the other's; t1, ts, the solver settings, the points per chunk, every parameter of the model by dotted
 path (`provenance.parameters`; the swept ones as ``"swept"``: their values are the
 coordinates) and a fingerprint of the model: a hash of its tree structure and of the bytes of
 all its array leaves, with the swept leaves blanked), and the package versions that started it
@@ -143,8 +147,9 @@ order (as always with multi-controller JAX): do not make the call conditional on
 
 Modules, one job each: `arguments` (checks and resolves the arguments: points, metrics, output
 times, chunk size), `kernel` (the sharded, vmapped chunk function), `store` (manifest, chunk
-files, resume), `dataset` (the Dataset, ``results.nc``, the failure report), `progress` (the
-bar) and `driver` (`sweep`, a list of these stages).
+files, resume), `fingerprint` (the digest of a metric's code), `dataset` (the Dataset,
+``results.nc``, the failure report), `progress` (the bar) and `driver` (`sweep`, a list of
+these stages).
 """
 
 from .arguments import DEFAULT_SAMPLES, default_chunk_size

@@ -18,10 +18,10 @@ import numpy as np
 # the package's public names (bound in jaxbearing/__init__.py before it imports the sweep)
 from .. import _checks, metrics as _metrics, paths
 from ..multibody import Mechanism
-from ..solve import default_controller, default_max_segments, default_solver
-from ..solve import simulate, simulate_one_loop
-from .._checks import checked_controller, checked_span, checked_ts, window_stops
-from ..solve._simulate import SEGMENT_STEPS, _checked_options
+from ..simulation import default_controller, default_max_segments, default_solver
+from ..simulation import simulate, simulate_one_loop
+from ..solve import checked_controller, checked_solver, checked_span, checked_ts, window_stops
+from ..simulation import SEGMENT_STEPS, _checked_options
 
 DEFAULT_CHUNK_SIZE_CPU = 32  # points per CPU device per chunk (docs/performance.md)
 DEFAULT_CHUNK_SIZE_ACCELERATOR = {"segments": 4096, "one_loop": 65536}  # a GPU, by solve (docs/performance.md)
@@ -169,7 +169,7 @@ def output_times(items, t0, t1, ts) -> np.ndarray:
 
 def simulate_kwargs_of(kwargs):
     """The keyword arguments forwarded to the solve, sorted: `simulate`'s that both drivers
-    take; TypeError for others."""
+    take; TypeError for others, and for a solver that is not one (`solve.checked_solver`)."""
     name = simulate.__name__
     accepted = set(_simulate_parameters("one_loop")) - {"model", "t1"}
     for key in kwargs:
@@ -180,6 +180,8 @@ def simulate_kwargs_of(kwargs):
                 f"sweep got an unexpected keyword {key!r}; it forwards only {name}'s "
                 f"{sorted(accepted - set(NOT_FORWARDED))}."
             )
+    if kwargs.get("solver") is not None:
+        checked_solver(kwargs["solver"])
     return dict(sorted(kwargs.items()))
 
 

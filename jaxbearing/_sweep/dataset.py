@@ -13,7 +13,7 @@ from .kernel import NOT_FINITE, RAISED, SUCCESS
 
 NOT_FINITE_HINT = (
     "a metric is NaN when its window starts or ends at a time the solve did not stop at (add "
-    "that time to SolveOptions(window_edges=...)) or holds none of the solved span"
+    "that time to SolveOptions(window_edges=...)), holds none of the solved span or ends after t1"
 )
 
 

@@ -21,7 +21,7 @@ from jax.sharding import NamedSharding, PartitionSpec as P
 
 from .. import paths
 from ..solution import RESULTS
-from ..solve import simulate, simulate_one_loop
+from ..simulation import simulate, simulate_one_loop
 
 AXIS = "d"  # name of the device axis of the mesh
 SUCCESS = int(RESULTS.successful._value)

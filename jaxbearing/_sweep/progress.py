@@ -1,6 +1,9 @@
-"""The sweep's progress display: a tqdm bar over chunks, or plain lines without tqdm."""
+"""The sweep's progress display: a tqdm bar over chunks (`solve._progress.bar_class`: no
+TqdmWarning in a notebook without ipywidgets), or plain lines without tqdm."""
 
 from __future__ import annotations
+
+from ..solve._progress import bar_class
 
 
 class Progress:
@@ -15,7 +18,7 @@ class Progress:
         if not enabled:
             return
         try:
-            from tqdm.auto import tqdm
+            tqdm = bar_class()
         except ImportError:
             print(f"sweep: {initial}/{total} chunks done", flush=True)
             return

@@ -27,6 +27,7 @@ import numpy as np
 from .. import _files, paths, provenance
 from .arguments import resolved_settings
 from .dataset import flag_not_finite
+from .fingerprint import labelled, without_address as _no_address
 
 MANIFEST = "manifest.json"
 RESULTS_FILE = "results.nc"
@@ -47,7 +48,7 @@ def manifest(model, request):
         "parameters": {n: a.tolist() for n, a in zip(names, request.axes)},
         "grid": request.grid,
         "shape": list(request.shape),
-        "metrics": {name: _no_address(metric.label) for name, metric in request.metric_items},
+        "metrics": {name: labelled(metric) for name, metric in request.metric_items},
         "t1": request.t1,
         "ts": np.asarray(request.ts).tolist(),
         "simulate": {
@@ -291,9 +292,12 @@ def _check_same(old, record, out):
     differ = [k for k in record if k not in _NOT_COMPARED and old.get(k) != record[k]]
     differ += [k for k in old if k not in record]
     if differ:
+        code = (" A metric's [code ...] is a digest of what it computes (its code, constants, "
+                "defaults, closure and globals): a metric of the same label that computes "
+                "something else is another metric." if "metrics" in differ else "")  # fmt: skip
         raise ValueError(
             f"The sweep in {out} was started with other arguments: {', '.join(differ)} "
-            f"differ{'s' if len(differ) == 1 else ''} ({_describe_difference(old, record, differ)}). "
+            f"differ{'s' if len(differ) == 1 else ''} ({_describe_difference(old, record, differ)}).{code} "
             "Use another `out` folder for this sweep, or delete the old one to start afresh."
         )
 
@@ -339,8 +343,11 @@ def _describe_difference(old, new, keys):
 
 
 def _short(value, limit=120):
+    """``value`` as JSON, its middle cut where longer than ``limit``: the end (a metric's code
+    digest) stays readable."""
     text = json.dumps(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    head = (limit - 3) // 2
+    return text if len(text) <= limit else text[:head] + "..." + text[len(text) - (limit - 3 - head):]
 
 
 def chunk_name(k):
@@ -416,10 +423,6 @@ def _fingerprint(model, names):
         else:
             h.update(_no_address(repr(leaf)).encode())
     return h.hexdigest()
-
-
-def _no_address(text):
-    return re.sub(r" at 0x[0-9a-fA-F]+", "", text)
 
 
 def _jsonable(value):

@@ -48,6 +48,8 @@ def four_bar(
         Revolute(GROUND, (ground, 0.0), 2, (-rocker / 2, 0.0)),
     )
     forces = (BearingJoint(2, (rocker / 2, 0.0), 1, (coupler / 2, 0.0), bearing),)
+    if gravity is not None:
+        forces += (Gravity(gravity),)
     # a rough guess: the coupler level above the crank pin, the rocker upright; the assembly
     # moves it onto the joints (elbow up)
     guess = [crank / 2, 0.0, 0.0, crank + coupler / 2, rocker / 2, 0.0, ground, rocker / 2, np.pi / 2]
@@ -56,7 +58,6 @@ def four_bar(
         joints,
         guess,
         forces=forces,
-        gravity=None if gravity is None else Gravity(gravity),
         body_names=("crank", "coupler", "rocker"),
         window_start=window_start,
     )

@@ -44,8 +44,8 @@ def rotor(
         joints,
         q0,
         qd0,
-        forces=(BearingJoint(GROUND, (0.0, 0.0), 0, centre, bearing),),
-        gravity=None if gravity is None else Gravity(gravity),
+        forces=(BearingJoint(GROUND, (0.0, 0.0), 0, centre, bearing),)
+        + (() if gravity is None else (Gravity(gravity),)),
         body_names=("rotor",),
         window_start=window_start,
     )

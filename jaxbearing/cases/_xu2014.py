@@ -18,7 +18,9 @@ from ..multibody import (
     BearingJoint,
     Body,
     CircleContact,
+    ClearanceJoint,
     Driver,
+    JournalBearing,
     Mechanism,
     Revolute,
     SpringDamper,
@@ -96,7 +98,7 @@ def xu2014(
     crank_speed=20.0 * np.pi,
     contact_on=0.05,
     window_start=WINDOW_START,
-    bearing: str | AbstractBearing = "98205",
+    bearing: str | AbstractBearing | JournalBearing | None = "98205",
 ) -> Mechanism:
     """The paper's impact slider–crank (Tables 1–4), SI units.
 
@@ -112,7 +114,9 @@ def xu2014(
             the paper's SKF 98205; `params.ROLLER_CATALOGUE`: "NU205-estimated", a cylindrical
             roller bearing of the same envelope, "NU206" or "209"), built with ``cage``,
             ``ball_force``, ``clearance`` and ``bearing_damping``; or a `BallBearing` or
-            `RollerBearing` itself, and then those four must keep their defaults.
+            `RollerBearing` itself; or a plain bearing, a `JournalBearing` (a `ClearanceJoint`,
+            its hole on the crank, its journal on the rod); or None, an ideal pin (a
+            `Revolute`). Where it is not a designation, those four must keep their defaults.
     """
     if isinstance(bearing, str):
         bearing = _catalogue_bearing(
@@ -138,18 +142,22 @@ def xu2014(
         Translational(3),
     )
     x_target = l2 + l3 + 0.010
-    forces = (
-        BearingJoint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), bearing),
+    if bearing is None:  # the crank pin is an ideal joint
+        joints += (Revolute(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0)),)
+        forces = ()
+    else:
+        joint = ClearanceJoint if isinstance(bearing, JournalBearing) else BearingJoint
+        forces = (joint(0, (l2 / 2, 0.0), 1, (-l3 / 2, 0.0), bearing),)
+    forces += (
         SpringDamper(
             GROUND, (x_target + SPRING_FREE_LENGTH, 0.0), 3, (0.0, 0.0), 100e3, 120.0, SPRING_FREE_LENGTH
         ),
     )
-    contacts = ()
     if impact:
         contact = Impact.from_geometry(
             radius_j=0.01, radius_k=0.01, restitution=restitution, friction=friction
         )
-        contacts = (CircleContact(2, (0.0, 0.0), 0.01, 3, (0.0, 0.0), 0.01, contact, contact_on),)
+        forces += (CircleContact(2, (0.0, 0.0), 0.01, 3, (0.0, 0.0), 0.01, contact, contact_on),)
     w = crank_speed
     q0 = [l2 / 2, 0.0, 0.0, l2 + l3 / 2, 0.0, 0.0, l2 + l3, 0.0, 0.0, x_target, 0.0, 0.0]
     qd0 = [0.0, w * l2 / 2, w, 0.0, w * l2 / 2, -w * l2 / l3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
@@ -159,7 +167,6 @@ def xu2014(
         q0,
         qd0,
         forces=forces,
-        contacts=contacts,
         body_names=("crank", "rod", "slider", "target"),
         window_start=window_start,
     )

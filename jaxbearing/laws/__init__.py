@@ -1,6 +1,7 @@
-"""Pure force laws: bearing balls (Eqs. 9–15, 28), impact (Eqs. 23–27), Hertz stiffness (Eqs. 10–11, 24–25)."""
+"""Pure force laws: bearing balls (Eqs. 9–15, 28), impact (Eqs. 23–27), Hertz stiffness (Eqs. 10–11, 24–25),
+plain bearings (`journal`: a journal's contact stiffness, the short-bearing film force)."""
 
-from . import hertz
+from . import hertz, journal
 from .bearing import (
     ball_angles,
     ball_deflections,
@@ -22,6 +23,7 @@ __all__ = [
     "cage_speed",
     "hertz",
     "hertz_force",
+    "journal",
     "lankarani_nikravesh",
     "resultant",
     "ring_point_loads",

@@ -64,6 +64,7 @@ are evaluated in `jax.numpy` inside the caller's program.
 from __future__ import annotations
 
 from .. import _checks
+from . import rules
 from ._ellipse import elliptic, shape
 
 __all__ = [
@@ -120,9 +121,9 @@ def groove_rules(xp, groove_inner, groove_outer):
 def _geometry_rules(xp, ball_diameter, pitch_diameter, groove_inner, groove_outer, contact_angle):
     return [
         _checks.positive(xp, "ball_diameter", ball_diameter, "m"),
-        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
+        rules.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
         *groove_rules(xp, groove_inner, groove_outer),
-        _checks.contact_angle_rule(xp, contact_angle),
+        rules.contact_angle_rule(xp, contact_angle),
     ]
 
 
@@ -229,7 +230,7 @@ def race_stiffness(sum_rho, curvature_difference, youngs_modulus, poisson_ratio)
     _checks.check(
         lambda xp, rho, f, e, nu: [_checks.positive(xp, "sum_rho", rho, "1/m")]
         + _curvature_difference_rules(xp, f)
-        + _checks.material(xp, e, nu),
+        + rules.material(xp, e, nu),
         rho, f, e, nu,
     )
     return _checks.evaluate(_race_stiffness, rho, f, e, nu)
@@ -299,7 +300,7 @@ def bearing_stiffness(
     )
     _checks.check(
         lambda xp, d, dm, fi, fo, e, nu, alpha: _geometry_rules(xp, d, dm, fi, fo, alpha)
-        + _checks.material(xp, e, nu),
+        + rules.material(xp, e, nu),
         d, dm, fi, fo, e, nu, alpha,
     )
     return _checks.evaluate(_bearing_stiffness, d, dm, fi, fo, e, nu, alpha)
@@ -334,8 +335,8 @@ def impact_stiffness(radius_j, radius_k, youngs_j, poisson_j, youngs_k=None, poi
         lambda xp, rj, rk, ej, nj, ek, nk: [
             _checks.positive(xp, "radius_j", rj, "m"), _checks.positive(xp, "radius_k", rk, "m")
         ]
-        + _checks.material(xp, ej, nj, "youngs_j", "poisson_j")
-        + _checks.material(xp, ek, nk, "youngs_k", "poisson_k"),
+        + rules.material(xp, ej, nj, "youngs_j", "poisson_j")
+        + rules.material(xp, ek, nk, "youngs_k", "poisson_k"),
         rj, rk, ej, nj, ek, nk,
     )
     return _checks.evaluate(_impact_stiffness, rj, rk, ej, nj, ek, nk)
@@ -385,7 +386,7 @@ def roller_curvature_sums(roller_diameter, pitch_diameter):
     )
     _checks.check(
         lambda xp, d, dm: [
-            _checks.positive(xp, "roller_diameter", d, "m"), _checks.pitch_exceeds_ball(xp, dm, d)
+            _checks.positive(xp, "roller_diameter", d, "m"), rules.pitch_exceeds_ball(xp, dm, d)
         ],
         d, dm,
     )
@@ -427,7 +428,7 @@ def point_contact_stress(load, sum_rho, curvature_difference, youngs_modulus, po
             _checks.non_negative(xp, "load", q, "N"), _checks.positive(xp, "sum_rho", rho, "1/m")
         ]
         + _curvature_difference_rules(xp, f)
-        + _checks.material(xp, e, nu),
+        + rules.material(xp, e, nu),
         q, rho, f, e, nu,
     )
     return _checks.evaluate(_point_contact_stress, q, rho, f, e, nu)
@@ -459,7 +460,7 @@ def line_contact_stress(load, length, sum_rho, youngs_modulus, poisson_ratio):
             _checks.positive(xp, "length", length, "m"),
             _checks.positive(xp, "sum_rho", rho, "1/m"),
         ]
-        + _checks.material(xp, e, nu),
+        + rules.material(xp, e, nu),
         q, length, rho, e, nu,
     )
     return _checks.evaluate(_line_contact_stress, q, length, rho, e, nu)

@@ -1,6 +1,7 @@
 """Rolling-contact fatigue life and static capacity of the bearing from simulated loads: the
-ISO 281 rating (ball and roller bearings), Lundberg–Palmgren per-ball life, and the ISO 76
-static safety. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
+ISO 281 rating (ball and roller bearings), Lundberg–Palmgren per-ball life, ISO/TS 16281's
+reference rating life from the element loads (ball and roller bearings, clearance and preload
+included), the static load distribution, and the ISO 76 static safety. Pure, float64, and safe under `jax.jit`, `jax.vmap` and
 `jax.grad` (``log`` of a life is a smooth objective, e.g. against the clearance).
 
 Two levels:
@@ -8,12 +9,17 @@ Two levels:
 - **Ratings** from the geometry: ISO 281's `dynamic_load_rating` (balls) and
   `roller_dynamic_load_rating` (rollers) with their tables (`load_rating_factor`,
   `roller_load_rating_factor`), ISO 76's `static_load_rating` and `roller_static_load_rating`
-  (`static_load_factor`), and of a bearing's parameters `dynamic_rating`, `static_rating`.
+  (`static_load_factor`), and of a bearing's parameters `dynamic_rating`, `static_rating`,
+  and ISO/TS 16281's raceway ratings `reference_ratings` (with Harris' `load_zone_integrals`).
+- **Static** bearings: `load_distribution` (the inner ring's displacement, each element's
+  load and the load zone under a radial load, at any clearance or preload and cage position;
+  a `LoadDistribution`) and the static form of `reference_life`.
 - **Laws on arrays** (testable on synthetic histories): `revolution_weights`,
   `equivalent_load`, `rating_life`, `ball_race_load_ratings`, `ball_equivalent_load`, `ring_equivalent_load`, `ring_life`,
   `bearing_life`, `mean_speed_rpm`, `life_hours`, `reliability_factor` (ISO 281's a1).
-- **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`, `l10_hours`, and
-  `metric`, the L10 life as a metric (`LifeMetric`) of sweeps and sensitivities;
+- **On a `Solution`** of a model with a bearing joint: `iso_life`, `lp_life`,
+  `reference_life` (a `ReferenceLife`), `l10_hours`, and `metric`, the L10 life as a metric
+  (`LifeMetric`) of sweeps, sensitivities and tuning;
   `static_safety`, the ISO 76 static capacity (C_0r, the peak equivalent static load, s_0 and
   the contact stress). The lives apply the
   same rules to the integrals the solve records (`Solution.fatigue`, `solution.FatigueStats`: Gauss–Legendre quadrature of each
@@ -57,6 +63,7 @@ from ._formulas import (
     ring_equivalent_load,
     ring_life,
 )
+from ._distribution import LoadDistribution, load_distribution
 from ._ratings import (
     B_M,
     B_M_ROLLER,
@@ -69,6 +76,7 @@ from ._ratings import (
     ISO_REDUCTION,
     ball_race_load_ratings,
     dynamic_load_rating,
+    dynamic_rating,
     load_rating_factor,
     roller_dynamic_load_rating,
     roller_load_rating_factor,
@@ -76,15 +84,16 @@ from ._ratings import (
     static_load_factor,
     static_load_rating,
 )
+from ._reference import ReferenceLife, load_zone_integrals, reference_ratings
 from ._solution import (
     LPLife,
     LifeMetric,
     RatingLife,
-    dynamic_rating,
     iso_life,
     l10_hours,
     lp_life,
     metric,
+    reference_life,
     relative_speed,
     ring_point_loads,
 )
@@ -109,9 +118,11 @@ __all__ = [
     "ISO_REDUCTION",
     "LPLife",
     "LifeMetric",
+    "LoadDistribution",
     "PERMISSIBLE_BALL",
     "PERMISSIBLE_ROLLER",
     "RatingLife",
+    "ReferenceLife",
     "StaticSafety",
     "ball_equivalent_load",
     "ball_race_load_ratings",
@@ -123,12 +134,16 @@ __all__ = [
     "iso_life",
     "l10_hours",
     "life_hours",
+    "load_distribution",
     "load_rating_factor",
+    "load_zone_integrals",
     "lp_life",
     "metric",
     "mean_speed_rpm",
     "rating_life",
     "relative_speed",
+    "reference_life",
+    "reference_ratings",
     "reliability_factor",
     "revolution_weights",
     "ring_equivalent_load",

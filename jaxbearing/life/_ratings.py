@@ -5,9 +5,12 @@ bearings."""
 
 from __future__ import annotations
 
+import jax
 import numpy as np
 
 from .. import _checks
+from ..laws import rules
+from ..params import RollerBearing
 
 B_M = 1.3  # ISO 281:2007 rating factor b_m for contemporary hardened bearing steel (Table 1)
 LP_CONSTANT = 98.1  # [N / mm^1.8] Lundberg–Palmgren constant of Q_c (Harris & Kotzalas)
@@ -82,11 +85,11 @@ def _geometry_rules(xp, n_balls, ball_diameter, pitch_diameter, contact_angle, e
     """Rules of a bearing's geometry, named as the arguments (``element``: "ball" or
     "roller")."""
     return [
-        _checks.ball_count(xp, n_balls, f"n_{element}s"),
+        rules.ball_count(xp, n_balls, f"n_{element}s"),
         _checks.positive(xp, f"{element}_diameter", ball_diameter, "m"),
-        _checks.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
-        _checks.balls_fit(xp, n_balls, ball_diameter, pitch_diameter, element),
-        _checks.contact_angle_rule(xp, contact_angle),
+        rules.pitch_exceeds_ball(xp, pitch_diameter, ball_diameter),
+        rules.balls_fit(xp, n_balls, ball_diameter, pitch_diameter, element),
+        rules.contact_angle_rule(xp, contact_angle),
     ]
 
 
@@ -420,3 +423,14 @@ def ball_race_load_ratings(
         z, d, dm, fi, fo, alpha, bm, red,
     )
     return _checks.evaluate(_race_ratings, z, d, dm, fi, fo, alpha, bm, red)
+
+
+def dynamic_rating(b) -> jax.Array:
+    """ISO 281's basic dynamic radial load rating C_r [N] of a bearing's parameters, by its
+    kind: `dynamic_load_rating` of a `BallBearing`, `roller_dynamic_load_rating` of a
+    `RollerBearing` (Z, D and d_m from the raceway diameters d_i = d_m - D, d_o = d_m + D)."""
+    if isinstance(b, RollerBearing):
+        return roller_dynamic_load_rating(
+            b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length
+        )
+    return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)

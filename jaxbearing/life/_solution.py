@@ -27,10 +27,10 @@ from ..metrics import (
     window_start,
 )
 from ..multibody.mechanism import Mechanism
-from ..params import BallBearing, RollerBearing
+from ..params import AbstractBearing, BallBearing
 from ..solution import (
-    FAT_BALL_CUBED,
-    FAT_BALL_TEN_THIRDS,
+    FAT_ELEMENT_POWER,
+    FAT_ELEMENT_SLOPE_POWER,
     FAT_FORCE_POWER,
     FAT_REVOLUTIONS,
     FAT_TIME,
@@ -48,13 +48,8 @@ from ._formulas import (
     reliability_factor,
     ring_cube_mean,
 )
-from ._ratings import (
-    B_M,
-    ISO_REDUCTION,
-    ball_race_load_ratings,
-    dynamic_load_rating,
-    roller_dynamic_load_rating,
-)
+from ._ratings import B_M, ISO_REDUCTION, ball_race_load_ratings, dynamic_rating
+from ._reference import ReferenceLife, _lives, reference_ratings, static_reference_life
 
 
 class RatingLife(eqx.Module):
@@ -120,17 +115,6 @@ def relative_speed(sol: Solution, model: Mechanism, bearing=None) -> jax.Array:
 @eqx.filter_jit
 def _relative_speed(joint, q, qd):
     return jax.vmap(joint.relative_speed)(q, qd)
-
-
-def dynamic_rating(b) -> jax.Array:
-    """ISO 281's basic dynamic radial load rating C_r [N] of a bearing's parameters, by its
-    kind: `dynamic_load_rating` of a `BallBearing`, `roller_dynamic_load_rating` of a
-    `RollerBearing` (Z, D and d_m from the raceway diameters d_i = d_m - D, d_o = d_m + D)."""
-    if isinstance(b, RollerBearing):
-        return roller_dynamic_load_rating(
-            b.n_balls, b.ball_diameter, b.pitch_diameter, b.roller_length
-        )
-    return dynamic_load_rating(b.n_balls, b.ball_diameter, b.pitch_diameter)
 
 
 def _reliability(a1, l10, n):
@@ -335,8 +319,8 @@ def lp_life(
         reliability: S in [0.9, 0.9995] of L_nm = a1 L10 (`reliability_factor`).
 
     Ball bearings only: a `RollerBearing` is refused (its line contacts need the ring ratings
-    of Harris & Kotzalas with the load–life exponent 4, and ring-point records of Q^4, which
-    the solve does not keep); `iso_life` rates it.
+    of Harris & Kotzalas with the load–life exponent 4); `reference_life` rates it from its
+    roller loads (ISO/TS 16281), `iso_life` from its resultant.
     """
     if rotating not in (None, "inner", "outer"):
         raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
@@ -349,10 +333,10 @@ def lp_life(
     b = _joint(model, bearing).bearing
     if not isinstance(b, BallBearing):
         raise ValueError(
-            f"lp_life rates ball bearings; this bearing is a {type(b).__name__}. The "
-            "Lundberg–Palmgren life of line contacts needs roller–raceway ratings with the "
-            "load–life exponent 4 (Harris & Kotzalas) and ring-point records of Q^4, which the "
-            "solve does not keep (the fatigue record holds cubes): use iso_life."
+            f"lp_life rates ball bearings; this bearing is a {type(b).__name__}. The life of "
+            "line contacts from the roller loads (load–life exponent 4) is ISO/TS 16281's "
+            "reference rating life: use reference_life (or iso_life, ISO 281 from the "
+            "resultant)."
         )
     z, d, dm = b.n_balls, b.ball_diameter, b.pitch_diameter
     q_ci, q_co = ball_race_load_ratings(
@@ -373,8 +357,8 @@ def _lp_life(sol: Solution, index, lo, hi, q_ci, q_co, a1, rotating) -> LPLife:
         q_ei = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(inner, revolutions)), 1.0 / 3.0)
         q_eo = FORCE_SCALE * _safe_power(ring_cube_mean(_mean(outer, revolutions)), 1.0 / 3.0)
     else:
-        cubed = FORCE_SCALE * _safe_power(_mean(integrals[FAT_BALL_CUBED], revolutions), 1 / 3)
-        power = _mean(integrals[FAT_BALL_TEN_THIRDS], revolutions)
+        cubed = FORCE_SCALE * _safe_power(_mean(integrals[FAT_ELEMENT_POWER], revolutions), 1 / 3)
+        power = _mean(integrals[FAT_ELEMENT_SLOPE_POWER], revolutions)
         ten_thirds = FORCE_SCALE * _safe_power(power, 0.3)
         q_ei, q_eo = (cubed, ten_thirds) if rotating == "inner" else (ten_thirds, cubed)
     inv_i = _safe_power(q_ei / q_ci, 3.0)
@@ -387,22 +371,132 @@ def _lp_life(sol: Solution, index, lo, hi, q_ci, q_co, a1, rotating) -> LPLife:
     )  # fmt: skip
 
 
+_STATIC_ONLY = ("cage", "speed_rpm")  # keywords of reference_life's static form alone
+
+
+def reference_life(
+    sol,
+    model,
+    bearing=None,
+    *,
+    t_min="model",
+    t_max=None,
+    rotating: Literal["inner", "outer"] | None = None,
+    cage=None,
+    speed_rpm=None,
+    load_rating=None,
+    groove_inner=None,
+    groove_outer=None,
+    reliability=0.9,
+) -> ReferenceLife:
+    """ISO/TS 16281's basic reference rating life L10r, from the rolling elements' loads (so it
+    sees the clearance, a preload and the load zone, which ISO 281's L10 from the resultant
+    does not): raceway ratings Q_ci, Q_ce from C_r and the geometry (`reference_ratings`),
+    each ring's equivalent element load, ring lives L = (Q_c/Q_e)^m and
+
+        L10r = ((Q_ci/Q_ei)^(-m e) + (Q_ce/Q_ee)^(-m e))^(-1/e)
+
+    (balls m = 3, e = 10/9: exponents -10/3 and -9/10; rollers m = 4, e = 9/8: -9/2 and -8/9)
+    in millions of relative revolutions, and L_nm = a1 L10r (`reliability_factor`). In the
+    planar model the rings stay aligned, so the load is uniform along each roller and the
+    standard's laminae reduce to the whole roller (docs/life.md, 'The reference rating life').
+
+    Two forms:
+
+    - ``reference_life(sol, model, bearing=None, ...)``: of a simulated bearing joint
+      (``bearing``: its index in ``model.bearings``; None: the only one) over the window
+      ``[t_min, t_max]`` ("model": the model's ``window_start``; edges must be stops of the
+      solve), from the integrals the solve records for every accepted step
+      (``sol.bearings[i].fatigue``: exact from the solution, not its samples), each instant
+      weighted by the relative revolutions turned in it (the load spectrum of the standard).
+      ``rotating=None`` (default) follows points fixed in each ring through the simulated
+      load: each point's Miner mean of Q^m over the window, the ring's (mean of its points'
+      Q_k^(m e))^(1/(m e)), which is the standard's cube mean over the elements for a ring that
+      rotates relative to the load and its 10/3 mean for one that stands in it, and what
+      lies between in a mechanism where both rings turn (`ring_equivalent_load`).
+      ``rotating="inner"`` or ``"outer"`` instead names the ring that rotates relative to the
+      load and applies the standard's two means to the element loads over the window.
+      Differentiable, and a metric of sweeps and tuning: ``life.metric("reference")``.
+    - ``reference_life(bearing, load, ...)``: static, a `BallBearing` or `RollerBearing`
+      under the radial load (F_x, F_y) [N] on the inner ring, outer ring fixed
+      (`load_distribution`; ``cage``: element 1's angle [rad], None: on the load line), the
+      standard's means over the elements at that cage position, ``rotating`` the ring that
+      turns relative to the load (None: the inner ring); ``speed_rpm`` gives the hours (else
+      the hours are None). Concrete inputs run in NumPy, traced ones differentiably.
+
+    Args (both forms): ``load_rating``, C_r [N] (None: ISO 281's from the geometry, a
+    catalogue's may be given); ``groove_inner``, ``groove_outer``: a ball bearing's raceway
+    conformities (None: 0.52, ISO 281's; none for rollers); ``reliability``: S in
+    [0.9, 0.9995].
+    """
+    if rotating not in (None, "inner", "outer"):
+        raise ValueError(f"rotating must be None, 'inner' or 'outer'; got {rotating!r}.")
+    ratings = dict(load_rating=load_rating, groove_inner=groove_inner, groove_outer=groove_outer)
+    if isinstance(sol, AbstractBearing):
+        if bearing is not None or (t_min, t_max) != ("model", None):
+            raise TypeError(
+                "reference_life(bearing, load, ...) is the static form: it takes no bearing "
+                "index, t_min or t_max (those of a Solution's form)."
+            )
+        return static_reference_life(
+            sol, model, cage=cage, rotating=rotating, reliability=reliability,
+            speed_rpm=speed_rpm, **ratings,
+        )[0]  # fmt: skip
+    if cage is not None or speed_rpm is not None:
+        raise TypeError(
+            "reference_life(sol, model, ...) takes no cage or speed_rpm (those of the static "
+            "form, reference_life(bearing, load, ...)): a solution has its cage and speeds."
+        )
+    _fatigue(sol, model, bearing)  # the solution's checks first
+    b = _joint(model, bearing).bearing
+    q_ci, q_ce = reference_ratings(b, **ratings)  # NumPy where known in Python
+    index, edges = _window(sol, model, bearing, t_min, t_max)
+    a1 = reliability_factor(reliability)
+    m, e = b.raceway_exponent, b.weibull_slope
+    return _reference_life(sol, index, *edges, q_ci, q_ce, a1, rotating, m, e)
+
+
+@functools.partial(jax.jit, static_argnums=(1, 7, 8, 9))
+def _reference_life(sol: Solution, index, lo, hi, q_ci, q_ce, a1, rotating, m, e) -> ReferenceLife:
+    """`reference_life` of bearing joint ``index`` over [lo, hi] [s] with the raceway ratings
+    Q_ci, Q_ce [N], raceway exponent m and Weibull slope e."""
+    integrals, inner, outer = _window_integrals(sol, sol.bearings[index].fatigue, lo, hi)
+    revolutions = integrals[FAT_REVOLUTIONS]
+    if rotating is None:  # each ring point's Miner mean, then the points' slope-e mean
+
+        def ring(points):
+            per_point = _safe_power(_mean(points, revolutions), e)
+            return FORCE_SCALE * _safe_power(jnp.mean(per_point), 1.0 / (m * e))
+
+        q_ei, q_ee = ring(inner), ring(outer)
+    else:
+        mean = lambda column, p: FORCE_SCALE * _safe_power(_mean(integrals[column], revolutions), 1.0 / p)  # noqa: E731
+        turning, standing = mean(FAT_ELEMENT_POWER, m), mean(FAT_ELEMENT_SLOPE_POWER, m * e)
+        q_ei, q_ee = (turning, standing) if rotating == "inner" else (standing, turning)
+    life_i, life_e, l10 = _lives(jnp, q_ei, q_ee, q_ci, q_ce, m, e)
+    n = 60.0 * revolutions / integrals[FAT_TIME]
+    return ReferenceLife(
+        q_ci, q_ce, q_ei, q_ee, life_i, life_e, l10, n, 1e6 * l10 / (60.0 * n),
+        *_reliability(a1, l10, n),
+    )  # fmt: skip
+
+
 def l10_hours(
-    sol: Solution, model: Mechanism, method: Literal["iso", "lp"] = "iso", **kwargs
+    sol: Solution, model: Mechanism, method: Literal["iso", "lp", "reference"] = "iso", **kwargs
 ) -> jax.Array:
     """L10 life in hours at the simulated mean relative speed: ``method="iso"`` the ISO 281
     rating (C_r/P)^3 (`iso_life`), ``"lp"`` Lundberg–Palmgren from the ball loads (`lp_life`;
-    pass ``groove_inner``, ``groove_outer``). Keyword arguments go to that function."""
+    pass ``groove_inner``, ``groove_outer``), ``"reference"`` ISO/TS 16281's L10r from the
+    element loads (`reference_life`). Keyword arguments go to that function."""
     return _life_function(method)(sol, model, **kwargs).l10_hours
 
 
 def _life_function(method):
-    """`iso_life` or `lp_life` by name."""
-    if method == "iso":
-        return iso_life
-    if method == "lp":
-        return lp_life
-    raise ValueError(f"method must be 'iso' or 'lp'; got {method!r}.")
+    """`iso_life`, `lp_life` or `reference_life` by name."""
+    functions = {"iso": iso_life, "lp": lp_life, "reference": reference_life}
+    if method not in functions:
+        raise ValueError(f"method must be 'iso', 'lp' or 'reference'; got {method!r}.")
+    return functions[method]
 
 
 _L10_UNITS = ("hours", "mrev")
@@ -413,8 +507,8 @@ class LifeMetric(AbstractMetric):
     geometry and ring speeds, so a swept or differentiated clearance or stiffness enters the
     life), from the solve's fatigue records (no output samples).
 
-    Fields: method ("iso" or "lp"), unit ("hours" or "mrev"), options: ((keyword, value), ...)
-    of `iso_life` / `lp_life`."""
+    Fields: method ("iso", "lp" or "reference"), unit ("hours" or "mrev"), options: ((keyword,
+    value), ...) of `iso_life` / `lp_life` / `reference_life`."""
 
     method: str = eqx.field(static=True)
     unit: str = eqx.field(static=True)
@@ -445,7 +539,9 @@ class LifeMetric(AbstractMetric):
 
 
 def metric(
-    method: Literal["iso", "lp"] = "iso", unit: Literal["hours", "mrev"] = "hours", **kwargs
+    method: Literal["iso", "lp", "reference"] = "iso",
+    unit: Literal["hours", "mrev"] = "hours",
+    **kwargs,
 ) -> LifeMetric:
     """The L10 life as a metric of `jaxbearing.sweep`, `jaxbearing.sensitivity` and
     `metrics.converged` (a `LifeMetric`: each member's own model enters, so a swept clearance
@@ -454,12 +550,14 @@ def metric(
         metrics = {"l10_hours": life.metric("lp", groove_inner=0.5219, groove_outer=0.5194)}
 
     Args:
-        method: ``"iso"`` ISO 281 rating life (`iso_life`) or ``"lp"`` Lundberg–Palmgren
-            (`lp_life`).
+        method: ``"iso"`` ISO 281 rating life (`iso_life`), ``"lp"`` Lundberg–Palmgren
+            (`lp_life`) or ``"reference"`` ISO/TS 16281's reference rating life L10r
+            (`reference_life` of a solution).
         unit: ``"hours"`` L10h [h] at the mean relative speed, or ``"mrev"`` L10 [millions of
             relative revolutions].
         **kwargs: keyword arguments of that function (t_min, t_max; groove_inner,
-            groove_outer, rotating, ... for ``"lp"``), checked here; numbers and strings (the
+            groove_outer, rotating, ... for ``"lp"`` and ``"reference"``; not the static
+            form's ``cage`` and ``speed_rpm``), checked here; numbers and strings (the
             metric is static, compared by value). A ``t_min`` or ``t_max`` given as a number
             becomes a stop of the solves that compute the metric.
 
@@ -475,6 +573,12 @@ def metric(
         inspect.signature(function).bind(None, None, **kwargs)
     except TypeError as err:
         raise TypeError(f"life.metric({method!r}): {err}") from None
+    static = sorted(set(kwargs) & set(_STATIC_ONLY)) if method == "reference" else []
+    if static:
+        raise TypeError(
+            f"life.metric('reference'): {', '.join(static)} belong to reference_life's static "
+            "form; a metric rates a solution."
+        )
     for name, value in kwargs.items():
         if not (value is None or isinstance(value, (str, numbers.Real))):
             raise TypeError(

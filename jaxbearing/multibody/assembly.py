@@ -1,9 +1,10 @@
 """Assembly: initial coordinates and velocities that satisfy a mechanism's joints and drivers.
 
 The assembly constraints are the joints' Phi(q, t0) = 0 (drivers held at their angle at t0)
-and, for every `BearingJoint`, its race centres coinciding (the bearing centred, as in the
-paper's case). Positions: q0 is the point of that constraint manifold nearest the guess,
-min ||q - q_guess||^2 subject to Phi(q, t0) = 0, found by Gauss–Newton steps onto the manifold
+and, for every force element with play (`AbstractForceElement.centred`: a `BearingJoint`'s race
+centres, a `ClearanceJoint`'s journal and hole centres), its two points coinciding (centred, as
+the bearing of the paper's case). Positions: q0 is the point of that constraint manifold
+nearest the guess, min ||q - q_guess||^2 subject to Phi(q, t0) = 0, found by Gauss–Newton steps onto the manifold
 (minimum-norm corrections, robust from a rough guess) and then Gauss–Newton steps (the
 constraints' curvature left out: linear convergence to the same point) on the projection's
 optimality conditions,
@@ -22,7 +23,7 @@ mechanism compiles in a fraction of a second instead of compiling the loops; a t
 `jax.lax.while_loop` inside the caller's program.
 
 A constraint set whose Jacobian is rank-deficient at the assembly (redundant joints, e.g. an
-ideal `Revolute` beside a bearing at its points) is refused, naming the joints involved; so is
+ideal `Revolute` beside a bearing or a journal at its points) is refused, naming the joints involved; so is
 a guess from which the joints cannot be closed, naming the joint left open.
 """
 
@@ -34,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._checks import is_concrete, to_float64
-from .forces import BearingJoint
+from .bodies import point_position
 
 TOLERANCE = 1e-12  # [m or rad] residual of every assembly constraint at q0
 GAUSS_NEWTON_STEPS = 50  # Gauss–Newton steps onto the manifold before the projection's Newton
@@ -44,7 +45,7 @@ RANK_TOLERANCE = 1e-9  # smallest / largest singular value of Phi_q below which 
 
 def assemble(model, q_guess=None, qd_guess=None, t0=0.0):
     """``model`` with ``q0``, ``qd0`` that satisfy its joints and drivers at ``t0`` [s], each
-    bearing centred, nearest ``q_guess`` and ``qd_guess`` (defaults: the model's own ``q0``,
+    element with play centred, nearest ``q_guess`` and ``qd_guess`` (defaults: the model's own ``q0``,
     ``qd0``). See the module docstring; `Mechanism.assemble` calls it."""
     n = model.n_coordinates
     q_guess = model.q0 if q_guess is None else to_float64(q_guess)
@@ -52,7 +53,7 @@ def assemble(model, q_guess=None, qd_guess=None, t0=0.0):
     for name, x in (("q_guess", q_guess), ("qd_guess", qd_guess)):
         if x.shape != (n,):
             raise ValueError(f"{name} must have shape ({n},) (x, y, theta per body); got {x.shape}.")
-    if not model.joints and not model.bearings:
+    if not model.joints and not _centred(model):
         return _with_state(model, q_guess, qd_guess)
     if not is_concrete(*jax.tree_util.tree_leaves((model, q_guess, qd_guess, t0))):
         return _with_state(model, *_traced(model, q_guess, qd_guess, to_float64(t0)))
@@ -71,16 +72,25 @@ def _with_state(model, q, qd):
     return eqx.tree_at(lambda m: (m.q0, m.qd0), model, (q, qd))
 
 
+def _centred(model) -> list[tuple[int, tuple]]:
+    """(index in ``model.forces``, its `AbstractForceElement.centred` pairs) of each element
+    with play."""
+    return [(i, pairs) for i, f in enumerate(model.forces) if (pairs := f.centred()) is not None]
+
+
 def constraints(model, q, t) -> jax.Array:
-    """The assembly constraints: the joints' Phi(q, t), then the race-centre offsets of every
-    bearing (2 each) [m or rad]."""
-    parts = [joint(q, t) for joint in model.joints] + [b.offset(q) for b in model.bearings]
+    """The assembly constraints: the joints' Phi(q, t), then for every element with play the
+    offset of its second point from its first (2 each) [m or rad]."""
+    parts = [joint(q, t) for joint in model.joints]
+    for _, ((body_a, point_a), (body_b, point_b)) in _centred(model):
+        parts.append(point_position(q, body_b, point_b) - point_position(q, body_a, point_a))
     return jnp.concatenate(parts)
 
 
 def linearized(model, q, t):
     """`constraints` at (q, t) [m or rad] with their derivatives d/dq (n_equations,
-    n_coordinates) and d/dt (the joints' Phi_t; 0 for the bearings), in one forward-mode pass."""
+    n_coordinates) and d/dt (the joints' Phi_t; 0 for the centred elements), in one
+    forward-mode pass."""
     (jac, rate), phi = jax.jacfwd(lambda q, t: (constraints(model, q, t),) * 2, argnums=(0, 1), has_aux=True)(q, t)
     return phi, jac, rate
 
@@ -91,9 +101,9 @@ def labels(model) -> list[str]:
     out = []
     for i, joint in enumerate(model.joints):
         out += [model.joint_label(i)] * joint.n_equations
-    for i, force in enumerate(model.forces):
-        if isinstance(force, BearingJoint):
-            out += [f"force {i} (BearingJoint, {model.bodies_label(force.outer_body, force.inner_body)})"] * 2
+    for i, ((body_a, _), (body_b, _)) in _centred(model):
+        kind = type(model.forces[i]).__name__
+        out += [f"force {i} ({kind}, {model.bodies_label(body_a, body_b)})"] * 2
     return out
 
 
@@ -226,8 +236,9 @@ def _check_rank(model, jac) -> None:
     combination = u[:, rank]  # a combination of the equations whose Phi_q rows cancel
     involved = np.flatnonzero(np.abs(combination) > 1e-6 * np.abs(combination).max())
     names = list(dict.fromkeys(labels(model)[i] for i in involved))
-    bearing = any("BearingJoint" in name for name in names)
-    hint = " (a BearingJoint already joins its two bodies: no ideal joint may)" if bearing else ""
+    centred = [type(model.forces[i]).__name__ for i, _ in _centred(model)]
+    kinds = [kind for kind in dict.fromkeys(centred) if any(f"({kind}," in name for name in names)]
+    hint = f" (a {kinds[0]} already joins its two bodies: no ideal joint may)" if kinds else ""
     raise ValueError(
         "redundant constraints: " + ", ".join(names) + " constrain the same motion (Phi_q is "
         f"rank-deficient at the assembly). Remove one of them{hint}."

@@ -20,6 +20,7 @@ Two eliminations give the same q_ddot to rounding (tests/test_multibody.py):
 from __future__ import annotations
 
 import functools
+from collections.abc import Mapping
 
 import equinox as eqx
 import jax
@@ -32,6 +33,8 @@ from .bodies import GROUND, Body
 from .constraints import AbstractJoint, JacobianRows, Revolute
 from .forces import AbstractForceElement, BearingJoint, CircleContact, ForceInputs, Gravity
 
+DRIFT_FRACTION = 0.01  # of the smallest nonzero |play| of the force elements: `drift_bound`
+DRIFT_SIZE_FRACTION = 1e-4  # of the mechanism's size, where no element has a play
 POSITION_TOLERANCE = 1e-8  # [m or rad] allowed violation of Phi(q0, 0) = 0
 VELOCITY_TOLERANCE = 1e-6  # [m/s or rad/s] allowed violation of Phi_dot(q0, qd0, 0) = 0
 
@@ -42,15 +45,16 @@ class Mechanism(eqx.Module):
     Fields:
         bodies: the moving bodies; body b owns q[3b:3b+3] = [x, y, theta].
         joints: kinematic constraints (`Revolute`, `Translational`, `Driver`).
-        forces: force elements without captured state (`BearingJoint`, `SpringDamper`).
-        contacts: impact contacts (`CircleContact`), whose approach speeds are captured per
-            contact by `simulate`.
-        gravity: a `Gravity` or None.
+        forces: every force element, in one list (`AbstractForceElement`: `BearingJoint`,
+            `CircleContact`, `SpringDamper`, `Gravity`, and your own); given as a mapping
+            name -> element, the elements are also named (``force_names``). ``bearings``,
+            ``contacts`` and ``gravity`` are views of it.
         q0, qd0: initial coordinates [m, rad] and velocities [m/s, rad/s], (3 n_bodies,)
             (qd0 default: at rest). A solve needs them to satisfy the joints and drivers at its
             t0; `assemble` finds such a state from a rough guess.
         baumgarte_alpha, baumgarte_beta: Baumgarte stabilisation parameters [1/s] (Eq. 36).
         body_names: labels of the bodies, in order (static).
+        force_names: the name of each force element, or None where it has none (static).
         window_start: where the default window of `jaxbearing.metrics` and `jaxbearing.life`
             starts [s], e.g. after a start-up transient; the solve stops there. None (the
             default): the whole solved span.
@@ -59,13 +63,12 @@ class Mechanism(eqx.Module):
     bodies: tuple[Body, ...]
     joints: tuple[AbstractJoint, ...]
     forces: tuple[AbstractForceElement, ...]
-    contacts: tuple[CircleContact, ...]
-    gravity: Gravity | None
     q0: jax.Array
     qd0: jax.Array
     baumgarte_alpha: jax.Array
     baumgarte_beta: jax.Array
     body_names: tuple[str, ...] = eqx.field(static=True)
+    force_names: tuple[str | None, ...] = eqx.field(static=True)
     window_start: jax.Array | None
 
     def __init__(
@@ -76,8 +79,6 @@ class Mechanism(eqx.Module):
         qd0=None,
         *,
         forces=(),
-        contacts=(),
-        gravity=None,
         baumgarte_alpha=5.0,
         baumgarte_beta=5.0,
         body_names=None,
@@ -85,9 +86,17 @@ class Mechanism(eqx.Module):
     ):
         self.bodies = tuple(bodies)
         self.joints = tuple(joints)
-        self.forces = tuple(forces)
-        self.contacts = tuple(contacts)
-        self.gravity = gravity
+        self.forces, self.force_names = _elements(forces)
+        for i, joint in enumerate(self.joints):
+            if not isinstance(joint, AbstractJoint):
+                fix = (
+                    ": a force element belongs in forces=" if isinstance(joint, AbstractForceElement)
+                    else ""
+                )
+                raise TypeError(
+                    f"joints[{i}] must be a joint (jaxbearing.multibody.AbstractJoint: Revolute, "
+                    f"Translational, Driver); got {type(joint).__name__}{fix}."
+                )
         self.q0 = _checks.as_float(q0, "q0", "m, rad")
         if qd0 is None:
             qd0 = np.zeros(self.q0.shape)  # NumPy: jnp.zeros_like compiles a program
@@ -113,15 +122,19 @@ class Mechanism(eqx.Module):
             if window_start.ndim:
                 raise ValueError(f"window_start must be one time [s] or None; got shape {window_start.shape}.")
         self.window_start = window_start
-        for element in self.forces:
+        for i, element in enumerate(self.forces):
             for body in element.bodies():
                 if body >= len(self.bodies) or body < -1:
-                    raise ValueError(f"{type(element).__name__} refers to body {body}, which does not exist.")
+                    name = "" if self.force_names[i] is None else f" {self.force_names[i]!r}"
+                    raise ValueError(
+                        f"force {i}{name} ({type(element).__name__}) refers to body {body}, which "
+                        f"does not exist (bodies 0 to {len(self.bodies) - 1}, or GROUND = -1)."
+                    )
         if self.n_constraints > n:
             raise ValueError(
                 f"{self.n_constraints} constraint equations over-determine {n} coordinates."
             )
-        _refuse_pins_at_bearings(self)
+        _refuse_pins_at_centred(self)
 
     # -- structure -------------------------------------------------------------------------
     @property
@@ -143,8 +156,31 @@ class Mechanism(eqx.Module):
         return jnp.concatenate(per_body)
 
     @property
+    def inputs(self) -> ForceInputs:
+        """What every force element reads beside its state: q0, qd0 and the masses."""
+        return ForceInputs(self.q0, self.qd0, self.masses)
+
+    def indices(self, kind: type) -> tuple[int, ...]:
+        """The indices in ``forces`` of the elements of class ``kind``."""
+        return tuple(i for i, f in enumerate(self.forces) if isinstance(f, kind))
+
+    @property
     def bearings(self) -> tuple[BearingJoint, ...]:
-        return tuple(f for f in self.forces if isinstance(f, BearingJoint))
+        """The `BearingJoint` elements of ``forces``, in order (a view)."""
+        return tuple(self.forces[i] for i in self.indices(BearingJoint))
+
+    @property
+    def contacts(self) -> tuple[CircleContact, ...]:
+        """The `CircleContact` elements of ``forces``, in order (a view)."""
+        return tuple(self.forces[i] for i in self.indices(CircleContact))
+
+    @property
+    def gravity(self) -> Gravity | None:
+        """The `Gravity` element of ``forces`` (None without one; a ValueError with several)."""
+        found = self.indices(Gravity)
+        if len(found) > 1:
+            raise AttributeError(f"model.gravity: this model has {len(found)} Gravity elements.")
+        return self.forces[found[0]] if found else None
 
     @property
     def bearing(self) -> AbstractBearing:
@@ -166,6 +202,34 @@ class Mechanism(eqx.Module):
                 "use model.contacts[i].impact."
             )
         return self.contacts[0].impact
+
+    def element(self, key: int | str) -> AbstractForceElement:
+        """The force element of index ``key`` in ``forces``, or of that name."""
+        return self.forces[self.element_index(key)]
+
+    def element_index(self, key: int | str) -> int:
+        """The index in ``forces`` of the element ``key`` (an index or a name); a
+        ValueError naming what exists otherwise."""
+        if isinstance(key, str):
+            if key not in self.force_names:
+                named = [n for n in self.force_names if n is not None]
+                raise ValueError(
+                    f"No force element named {key!r}; the named ones: {named or 'none'} (name "
+                    "them by passing forces as a mapping, name -> element)."
+                )
+            return self.force_names.index(key)
+        if isinstance(key, bool) or not isinstance(key, int) or not 0 <= key < len(self.forces):
+            raise ValueError(
+                f"A force element is an index from 0 to {len(self.forces) - 1} or a name; got {key!r}."
+            )
+        return key
+
+    def force_label(self, i: int) -> str:
+        """``"force i (Type, bodies)"``, with the element's name where it has one."""
+        element = self.forces[i]
+        bodies = self.bodies_label(*element.bodies()) if element.bodies() else "every body"
+        name = self.force_names[i]
+        return f"force {i}{'' if name is None else f' {name!r}'} ({type(element).__name__}, {bodies})"
 
     # -- constraints (Eqs. 35–36) ------------------------------------------------------------
     def constraints(self, q, t) -> jax.Array:
@@ -200,56 +264,73 @@ class Mechanism(eqx.Module):
         gamma = jnp.concatenate([joint.gamma(q, qd, t) for joint in self.joints])
         return gamma - 2.0 * self.baumgarte_alpha * phi_dot - self.baumgarte_beta**2 * phi
 
-    # -- switched balls (paper force, see `laws.bearing`) -----------------------------------
-    @property
-    def n_switched_balls(self) -> int:
-        """Balls of all bearing joints with the paper force, whose contact `simulate` switches."""
-        return sum(element.n_switched_balls() for element in self.forces)
+    # -- force elements and their discrete states ------------------------------------------
+    def initial_states(self, t0, q0=None, qd0=None) -> tuple:
+        """Each force element's discrete state at t0 [s] from (q0, qd0) (default: the model's),
+        in ``forces`` order (`AbstractForceElement.initial_state`)."""
+        q0 = self.q0 if q0 is None else q0
+        qd0 = self.qd0 if qd0 is None else qd0
+        inputs = self.inputs
+        return tuple(f.initial_state(t0, q0, qd0, inputs) for f in self.forces)
 
-    def ball_deflections(self, t, q) -> jax.Array:
-        """delta_r [m] of the switched balls, bearing by bearing, (n_switched_balls,)."""
-        parts = [b.ball_deflections(t, q, self.q0, self.qd0) for b in self.bearings if b.switched]
-        return jnp.concatenate(parts) if parts else jnp.zeros((0,), q.dtype)
-
-    def engaged_by_bearing(self, engaged):
-        """Split ``engaged`` (n_switched_balls,) into one entry per bearing joint in
-        ``self.forces`` order: its (N_b,) slice, or None for a smooth-force bearing."""
-        parts, start = [], 0
-        for b in self.bearings:
-            if b.switched and engaged is not None:
-                parts.append(engaged[start : start + b.bearing.n_balls])
-                start += b.bearing.n_balls
-            else:
-                parts.append(None)
-        return parts
-
-    # -- forces and accelerations ------------------------------------------------------------
-    def generalized_forces(self, t, q, qd, approach_speeds, engaged=None) -> jax.Array:
-        """Q_A: all force elements and contacts, (n_coordinates,) [N, N m].
-
-        ``engaged`` (n_switched_balls,) bool: which balls of paper-force bearings touch (as
-        switched by `simulate`); None: those with delta_r > 0.
-        """
-        inputs = ForceInputs(self.q0, self.qd0, self.masses)
+    def generalized_forces(self, t, q, qd, states) -> jax.Array:
+        """Q_A: the sum of every force element's generalised force with its discrete state
+        (``states``, `initial_states`' structure), (n_coordinates,) [N, N m]."""
+        inputs = self.inputs
         total = jnp.zeros_like(q)
-        start = 0
-        for element in self.forces:
-            k = element.n_switched_balls()
-            mine = engaged[start : start + k] if k and engaged is not None else None
-            total = total + element.generalized_force(t, q, qd, inputs._replace(engaged=mine))
-            start += k
-        for c, contact in enumerate(self.contacts):
-            speed = inputs._replace(approach_speed=approach_speeds[c])
-            total = total + contact.generalized_force(t, q, qd, speed)
-        if self.gravity is not None:
-            total = total + self.gravity.generalized_force(t, q, qd, inputs)
+        for element, state in zip(self.forces, states, strict=True):
+            total = total + element.generalized_force(t, q, qd, state, inputs)
         return total
 
-    def accelerations(self, t, q, qd, approach_speeds, engaged=None, *, sparse=False) -> jax.Array:
+    def event_values(self, t, q, qd, states) -> jax.Array:
+        """Every element's event values, joined in ``forces`` order, (n_events,)."""
+        inputs = self.inputs
+        parts = [f.event_values(t, q, qd, s, inputs) for f, s in zip(self.forces, states, strict=True)]
+        return jnp.concatenate(parts) if parts else jnp.zeros((0,), q.dtype)
+
+    def event_counts(self) -> tuple[int, ...]:
+        """How many event values each element has (static)."""
+        t = jax.ShapeDtypeStruct((), self.q0.dtype)
+        q = jax.ShapeDtypeStruct(self.q0.shape, self.q0.dtype)
+        states = jax.eval_shape(self.initial_states, t, q, q)
+        inputs = self.inputs
+        return tuple(
+            jax.eval_shape(lambda t, q, s, f=f: f.event_values(t, q, q, s, inputs), t, q, state).shape[0]
+            for f, state in zip(self.forces, states)
+        )
+
+    def on_events(self, t, q, qd, states, crossed) -> tuple:
+        """The states after the events ``crossed`` ((n_events,) bool, `event_values`' order):
+        each element's `AbstractForceElement.on_events` with its own."""
+        inputs, out, start = self.inputs, [], 0
+        for element, state, count in zip(self.forces, states, self.event_counts(), strict=True):
+            mine = crossed[start : start + count]
+            out.append(element.on_events(t, q, qd, state, mine, inputs) if count else state)
+            start += count
+        return tuple(out)
+
+    @property
+    def episodic(self) -> tuple[int, ...]:
+        """The indices in ``forces`` of the elements with episodes (an ``episode_peak``)."""
+        return tuple(i for i, f in enumerate(self.forces) if f.episode_peak is not None)
+
+    def episodes(self, states):
+        """(in episode, logged value), each (n_episodic,), of the elements with episodes."""
+        chosen = [(self.forces[i], states[i]) for i in self.episodic]
+        if not chosen:
+            return jnp.zeros((0,), bool), jnp.zeros((0,), self.q0.dtype)
+        return (
+            jnp.stack([f.in_episode(s) for f, s in chosen]),
+            jnp.stack([jnp.asarray(f.episode_value(s), self.q0.dtype) for f, s in chosen]),
+        )
+
+    # -- accelerations -------------------------------------------------------------------------
+    def accelerations(self, t, q, qd, states, *, sparse=False) -> jax.Array:
         """q_ddot from Eq. 36 by the Schur complement of the diagonal mass matrix:
-        S lambda = Phi_q M^-1 Q_A - rhs, q_ddot = M^-1 (Q_A - Phi_q^T lambda). ``sparse`` (static):
-        the entry-by-entry elimination instead of the dense one (module docstring)."""
-        forces = self.generalized_forces(t, q, qd, approach_speeds, engaged)
+        S lambda = Phi_q M^-1 Q_A - rhs, q_ddot = M^-1 (Q_A - Phi_q^T lambda), with the force
+        elements' discrete ``states``. ``sparse`` (static): the entry-by-entry elimination
+        instead of the dense one (module docstring)."""
+        forces = self.generalized_forces(t, q, qd, states)
         m_inv = self.inverse_mass
         if not self.joints:
             return m_inv * forces
@@ -278,17 +359,10 @@ class Mechanism(eqx.Module):
                 f[c] = f[c] - value * lam_i
         return jnp.stack([m * x for m, x in zip(m_inv, f)])
 
-    def contact_gaps(self, q, qd):
-        """Penetrations [m] and their rates [m/s] of all contacts, each (n_contacts,)."""
-        if not self.contacts:
-            return jnp.zeros((0,), q.dtype), jnp.zeros((0,), q.dtype)
-        gaps = [c.gap(q, qd)[:2] for c in self.contacts]
-        return jnp.stack([g[0] for g in gaps]), jnp.stack([g[1] for g in gaps])
-
     # -- assembly and validation ----------------------------------------------------------------
     def assemble(self, q_guess=None, qd_guess=None, t0=0.0) -> Mechanism:
         """This mechanism with ``q0``, ``qd0`` that satisfy its joints and drivers at ``t0`` [s],
-        each bearing centred, nearest ``q_guess`` [m, rad] and ``qd_guess`` [m/s, rad/s]
+        each bearing and journal centred (`AbstractForceElement.centred`), nearest ``q_guess`` [m, rad] and ``qd_guess`` [m/s, rad/s]
         (defaults: its own ``q0``, ``qd0``). Newton's method; differentiable in the parameters
         (a joint point that moves moves the state) by the implicit function theorem. A
         `ValueError` names a joint it cannot close, or redundant joints
@@ -305,9 +379,6 @@ class Mechanism(eqx.Module):
         rules = _checks.finite_leaves(xp, self, named)
         parts = [(f"bodies.{i}.", b) for i, b in enumerate(self.bodies)]
         parts += [(f"forces.{i}.", f) for i, f in enumerate(self.forces)]
-        parts += [(f"contacts.{i}.", c) for i, c in enumerate(self.contacts)]
-        if self.gravity is not None:
-            parts.append(("gravity.", self.gravity))
         for prefix, part in parts:
             rules.extend(part.violations(xp, lambda field, prefix=prefix: named(prefix + field)))
         rules.append(_checks.positive(xp, "baumgarte_alpha", self.baumgarte_alpha, "1/s"))
@@ -318,7 +389,9 @@ class Mechanism(eqx.Module):
         """`parameter_violations` and the consistency of the initial state at ``t0`` [s]: every
         joint and driver satisfied (each joint named), no contact switched on while its surfaces
         overlap. The joints and contacts are JAX functions: with ``xp`` NumPy, those rules are
-        eager JAX operations (the solve evaluates all of them inside its program)."""
+        eager JAX operations (the solve evaluates all of them inside its program). Each force
+        element's rules on the initial state (`AbstractForceElement.start_violations`) are
+        named by its label."""
         rules = self.parameter_violations(xp)
         t0 = jnp.asarray(t0, self.q0.dtype)
         for i, joint in enumerate(self.joints):
@@ -336,16 +409,10 @@ class Mechanism(eqx.Module):
                  f"initial velocities qd0 violate {label} at t0 by more than {VELOCITY_TOLERANCE} "
                  f"(m/s or rad/s){fix}", rate)
             )
-        for i, contact in enumerate(self.contacts):
-            overlap = contact.gap(self.q0, self.qd0)[0]
-            rules.append(
-                (
-                    contact.active(t0) & (overlap > 0.0),
-                    f"contact {i} is switched on at t0 while its surfaces overlap (penetration "
-                    "[m]): start it apart, or switch it on later (active_from) when they are apart",
-                    overlap,
-                )
-            )
+        inputs = self.inputs
+        for i, element in enumerate(self.forces):
+            for broken, message, value in element.start_violations(t0, self.q0, self.qd0, inputs):
+                rules.append((broken, f"{self.force_label(i)} {message}", value))
         return rules
 
     def joint_label(self, i: int) -> str:
@@ -358,30 +425,71 @@ class Mechanism(eqx.Module):
         """The bodies' names joined by dashes, ``GROUND`` as "ground"."""
         return "–".join("ground" if b == GROUND else self.body_names[b] for b in bodies)
 
+    def drift_bound(self) -> float:
+        """The constraint drift [m] above which a run is not trusted: `DRIFT_FRACTION` of the
+        smallest nonzero |play| of its force elements (`AbstractForceElement.play`: a
+        bearing's diametral clearance or preload; the joints then move by a visible fraction of
+        the play, or of the preload's compression, the element forces act over), else `DRIFT_SIZE_FRACTION` of the mechanism's size (the
+        largest distance between two bodies' initial positions, at least 1 m where all start at
+        one point). Needs concrete values."""
+        plays = [abs(float(np.asarray(p))) for f in self.forces if (p := f.play()) is not None]
+        nonzero = [p for p in plays if p > 0.0]
+        if nonzero:
+            return DRIFT_FRACTION * min(nonzero)
+        xy = np.asarray(self.q0).reshape(-1, 3)[:, :2]
+        size = float(np.max(np.linalg.norm(xy[:, None] - xy[None], axis=-1))) if len(xy) else 0.0
+        return DRIFT_SIZE_FRACTION * (size if size > 0.0 else 1.0)
+
     def __check_init__(self):
         if _checks.is_concrete(*jax.tree_util.tree_leaves(self)):
             _checks.raise_first(_checks.on_host(self).parameter_violations(np))
 
 
-def _refuse_pins_at_bearings(model) -> None:
-    """A `ValueError` for an ideal `Revolute` that joins a `BearingJoint`'s two bodies at its
-    race centres: it would carry the load and the bearing none (checked where the points are
-    concrete; `Mechanism.assemble` refuses any redundant set)."""
+def _elements(forces) -> tuple[tuple, tuple]:
+    """(elements, names) of the ``forces`` given: a sequence of elements (no names) or a
+    mapping name -> element; a TypeError for anything but force elements."""
+    if isinstance(forces, Mapping):
+        names = tuple(forces)
+        for name in names:
+            if not isinstance(name, str) or not name:
+                raise TypeError(f"forces: each name must be a non-empty string; got {name!r}.")
+        elements = tuple(forces.values())
+    else:
+        elements = tuple(forces)
+        names = (None,) * len(elements)
+    for i, element in enumerate(elements):
+        if not isinstance(element, AbstractForceElement):
+            fix = ": a joint belongs in joints" if isinstance(element, AbstractJoint) else ""
+            raise TypeError(
+                f"forces[{i}] must be a force element (jaxbearing.multibody.AbstractForceElement: "
+                f"BearingJoint, CircleContact, SpringDamper, Gravity or your own); got "
+                f"{type(element).__name__}{fix}."
+            )
+    return elements, names
+
+
+def _refuse_pins_at_centred(model) -> None:
+    """A `ValueError` for an ideal `Revolute` that joins the two bodies of an element with play
+    (`AbstractForceElement.centred`: a `BearingJoint`'s race centres, a journal's and its
+    hole's centres) at those points: it would carry the load and the element none (checked
+    where the points are concrete; `Mechanism.assemble` refuses any redundant set)."""
     for f, force in enumerate(model.forces):
-        if not isinstance(force, BearingJoint):
+        pairs = force.centred()
+        if pairs is None:
             continue
-        races = {force.outer_body: force.outer_point, force.inner_body: force.inner_point}
+        points = dict(pairs)
+        kind = type(force).__name__
         for i, joint in enumerate(model.joints):
-            if not isinstance(joint, Revolute) or {joint.body_i, joint.body_j} != set(races):
+            if not isinstance(joint, Revolute) or {joint.body_i, joint.body_j} != set(points):
                 continue
-            points = (joint.point_i, races[joint.body_i], joint.point_j, races[joint.body_j])
-            if not _checks.is_concrete(*points):
+            given = (joint.point_i, points[joint.body_i], joint.point_j, points[joint.body_j])
+            if not _checks.is_concrete(*given):
                 continue
-            if np.allclose(points[0], points[1], atol=1e-9) and np.allclose(points[2], points[3], atol=1e-9):
+            if np.allclose(given[0], given[1], atol=1e-9) and np.allclose(given[2], given[3], atol=1e-9):
                 raise ValueError(
-                    f"{model.joint_label(i)} joins the two bodies of force {f} (BearingJoint) at its "
-                    "race centres: the ideal pin would carry the load and the bearing none. Remove "
-                    "the Revolute: the BearingJoint is the joint."
+                    f"{model.joint_label(i)} joins the two bodies of force {f} ({kind}) at the "
+                    f"points it centres: the ideal pin would carry the load and the {kind} none. "
+                    f"Remove the Revolute: the {kind} is the joint."
                 )
 
 

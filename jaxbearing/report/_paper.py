@@ -10,10 +10,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import life, metrics
-from ..cases import GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES, WINDOW_START
+from ..cases import FIGURE_WINDOW, GROOVE_INNER, GROOVE_OUTER, TABLE5, TABLE5_TIMES, WINDOW_START
 from ..params import BallBearing
 from ..solution import Solution
-from ._series import as_series, ball_keys, contacts, first_contact, onsets, series
+from ._series import as_series, ball_keys, contacts, first_contact, onsets, peak, series
 
 PEAK_FROM = WINDOW_START  # [s] peaks are taken after the paper case's start-up transient (docs/model.md)
 LOADED_THRESHOLD = 0.05  # [N] a ball is "loaded" at or above this: the paper prints 0.1 N steps
@@ -192,6 +192,25 @@ def life_summary(sol, model, t_min: float = PEAK_FROM) -> dict:
 
 
 
+_FIGURE_PEAKS = (("impact_force", "contact_force"), ("bearing_force", "bearing_f"), ("ball_load", "ball_loads"))
+
+
+def figure_peaks(data, window=FIGURE_WINDOW) -> dict:
+    """The peaks the figures show, over their ``window`` [s] (`cases.FIGURE_WINDOW`, Figs.
+    12–15), read off the samples as the figures draw them: JSON-ready keys ``figure_window_s``,
+    ``figure_peak_impact_force_N``, ``figure_peak_bearing_force_N`` (|F|),
+    ``figure_peak_ball_load_N``, each with its ``_time_s``, and ``figure_peak_ball_load_ball``
+    (numbered from 1; None where the window holds no sample). `format_summary` says where each
+    of the run's peaks lies against the figures and gives these where it lies outside."""
+    out = {"figure_window_s": [float(window[0]), float(window[1])]}
+    for name, key in _FIGURE_PEAKS:
+        found = peak(data, key, *window)
+        out[f"figure_peak_{name}_N"], out[f"figure_peak_{name}_time_s"] = found.value, found.time
+        if name == "ball_load":
+            out["figure_peak_ball_load_ball"] = None if found.key is None else int(found.key[4:])
+    return out
+
+
 def _fmt(x, spec: str) -> str:
     return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
 
@@ -208,20 +227,23 @@ def format_summary(label: str, s: Mapping) -> str:
         lines.append(f"  contacts (onsets)    {s['contact_count']}")
         lines.append(
             f"  peak impact force    {_fmt(s['peak_impact_force_N'], '.1f')} N at t = "
-            f"{_fmt(s['peak_impact_force_time_s'], '.6f')} s"
+            f"{_fmt(s['peak_impact_force_time_s'], '.6f')} s  (whole run{_shown(s, 'impact_force')})"
         )
+        lines += _in_figures(s, "impact_force")
     else:
         lines.append("  contacts (onsets)    0")
     t_min = s.get("peak_window_from_s", PEAK_FROM)
     lines.append(
         f"  peak bearing |F|     {_fmt(s['peak_bearing_force_N'], '.1f')} N at t = "
-        f"{_fmt(s['peak_bearing_force_time_s'], '.6f')} s  (t >= {t_min:g} s)"
+        f"{_fmt(s['peak_bearing_force_time_s'], '.6f')} s  (t >= {t_min:g} s{_shown(s, 'bearing_force')})"
     )
+    lines += _in_figures(s, "bearing_force")
     lines.append(
         f"  peak ball load       {_fmt(s['peak_ball_load_N'], '.1f')} N, "
         f"ball {s['peak_ball_load_ball']} at t = {_fmt(s['peak_ball_load_time_s'], '.6f')} s"
-        f"  (t >= {t_min:g} s)"
+        f"  (t >= {t_min:g} s{_shown(s, 'ball_load')})"
     )
+    lines += _in_figures(s, "ball_load")
     lines.append(f"  max constraint drift {_fmt(s['max_drift'], '.3e')}")
     lines.append(
         f"  steps                {s['num_steps']} ({s['num_rejected_steps']} rejected), "
@@ -244,6 +266,33 @@ def format_summary(label: str, s: Mapping) -> str:
             + (f", {second:.2f} s (second run, compiled)" if second is not None else "")
         )
     return "\n".join(lines)
+
+
+def _where(s: Mapping, name: str) -> str | None:
+    """Where the run's peak ``name`` lies against the figures' window (`figure_peaks`): "in",
+    "before" or "after"; None without figures or without the peak's time."""
+    window, t = s.get("figure_window_s"), s.get(f"peak_{name}_time_s")
+    if window is None or t is None or not math.isfinite(t):
+        return None
+    return "before" if t < window[0] else "after" if t > window[1] else "in"
+
+
+def _shown(s: Mapping, name: str) -> str:
+    """``; in the figures`` or ``; after the figures' 0.04-0.14 s``: where the peak is drawn."""
+    where = _where(s, name)
+    if where is None:
+        return ""
+    a, b = s["figure_window_s"]
+    return "; in the figures" if where == "in" else f"; {where} the figures' {a:g}-{b:g} s"
+
+
+def _in_figures(s: Mapping, name: str) -> list[str]:
+    """The line of the peak the figures show, where the run's lies outside them."""
+    if _where(s, name) not in ("before", "after"):
+        return []
+    value, t = s[f"figure_peak_{name}_N"], s[f"figure_peak_{name}_time_s"]
+    ball = f", ball {s['figure_peak_ball_load_ball']}" if name == "ball_load" else ""
+    return [f"{'':23}{_fmt(value, '.1f')} N{ball} at t = {_fmt(t, '.6f')} s  the figures' peak (sampled)"]
 
 
 def format_table5(t5: Mapping) -> str:

@@ -1,11 +1,10 @@
 """The integrator core: one iteration of the solve (`advance`), which both drivers repeat.
 
-State y = [q, q_dot]. Impact contacts need the approach speed at the onset of each contact
-(Lankarani–Nikravesh, Eq. 23), and the paper's ball force (Eq. 9) switches each ball's damping
-on at first touch, so the right-hand side changes at events: a penetration crossing zero
-(onset) or falling below -`SEPARATION_OFFSET` (separation), a paper-force ball's deflection
-crossing zero (engagement) or falling below -`BALL_RELEASE` (release). Between events it is
-smooth. An iteration is either
+The system (`AbstractSystem`) has a state y and a tuple of discrete states that change only at
+events, where an event value crosses zero (for a mechanism: a contact's onset and separation,
+a paper-force ball's engagement and release, each element's own); between events the
+right-hand side is smooth. The core knows neither what the states hold nor what the events
+mean. An iteration is either
 
 - a step attempt: the solver's step (``solver.step``, diffrax's public solver API) to the
   controller's proposed time, cut at the next stop; the step-size controller
@@ -15,8 +14,8 @@ smooth. An iteration is either
   `AbstractRecorder` defines), and the dense row the outputs are read from (`Row`);
 - or one step of the ITP root finder (`itp_step`) on the held step's interpolant. When the
   bracket is narrower than `EVENT_TIME_TOLERANCE`, the step is recorded up to the event time
-  (the bracket's upper end, where the event value is across zero), what the event found is
-  switched (`_switch`), and the next step starts there with the solver's first stage evaluated
+  (the bracket's upper end, where the event value is across zero), the system switches its
+  states for the events found (`_switch`), and the next step starts there with the solver's first stage evaluated
   anew (diffrax's ``made_jump``). The event time carries the tangent of the implicit function
   theorem (`_event_time`), not that of the bisection iterates.
 
@@ -35,16 +34,15 @@ import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ..laws.bearing import BALL_RELEASE
-from ..solution import RESULTS
 from ._recording import (
     AbstractRecorder, Peaks, RecordState, add_peaks, no_peaks, no_records, point_peaks, step_stats,
 )  # fmt: skip
+from ._results import RESULTS
+from ._system import AbstractSystem
 
-SEPARATION_OFFSET = 1e-9  # [m] separation is located at penetration = -1 nm: restarts never stall
 EVENT_TIME_TOLERANCE = 1e-13  # [s] width of the bracket that locates an event time
-JUMP = SEPARATION_OFFSET  # [m] an event value this far from 0 after a step shrunk below
-# `SMALLEST_STEP` is a jump (a continuous one would move at 1e6 m/s)
+JUMP = 1e-9  # an event value this far above 0 where the event is located, or after a step
+# shrunk below `SMALLEST_STEP`, jumped there (a continuous one, in m, would move at 1e6 m/s)
 ROOT_STEPS = 64  # root-finder steps after which an event counts as not located (a NaN value)
 SMALLEST_STEP = 1e-15  # [s] a member whose proposed step falls below it has failed
 ITP_KAPPA = 0.2  # truncation: the nudge is ITP_KAPPA (width)^2 / (initial width)
@@ -122,30 +120,16 @@ def _itp_point(state: ITPState) -> jax.Array:
     return jnp.clip(point, a, b)
 
 
-def event_values(model, t, y, in_contact, engaged):
-    """One value per contact, then one per switched ball, each negative until its next event.
-    Contacts: the penetration while apart (onset at 0), -(penetration + SEPARATION_OFFSET) while
-    touching, -1 while switched off (``active``). Balls: delta_r while free (engages at 0),
-    -(delta_r + BALL_RELEASE) while engaged."""
-    n = model.n_coordinates
-    q, qd = y[:n], y[n:]
-    penetration, _ = model.contact_gaps(q, qd)
-    contact = jnp.where(in_contact, -(penetration + SEPARATION_OFFSET), penetration)
-    active = jnp.stack([c.active(t) for c in model.contacts]) if model.contacts else contact > 0
-    delta = model.ball_deflections(t, q)
-    ball = jnp.where(engaged, -(delta + BALL_RELEASE), delta)
-    return jnp.concatenate([jnp.where(active, contact, -1.0), ball])
-
-
-def _event_value(model, t, y, in_contact, engaged):
+def _event_value(s: Setup, t, y, states):
     """The largest event value: it crosses zero at the first event (-1 without events)."""
-    return jnp.max(event_values(model, t, y, in_contact, engaged), initial=-1.0)
+    return jnp.max(s.system.event_values(t, y, states), initial=-1.0)
 
 
 def _event_time(event, t_root):
     """The event time ``t_root`` [s] located by the root finder, with the tangent of the implicit
-    function theorem: the event value ``event(t)`` (along the step's interpolant) is 0 there, so
-    dt = -(d event / d parameters) / (d event / dt)."""
+    function theorem: the event value ``event(t)`` (along the step's interpolant; the located
+    event's own, a smooth function) is 0 there, so dt = -(d event / d parameters) / (d event /
+    dt)."""
     t_root = jax.lax.stop_gradient(t_root)
     value, slope = jax.jvp(event, (t_root,), (jnp.ones_like(t_root),))
     slope = jax.lax.stop_gradient(slope)
@@ -153,36 +137,30 @@ def _event_time(event, t_root):
     return t_root - jnp.where(slope != 0, moved / jnp.where(slope != 0, slope, 1.0), 0.0)
 
 
-def _switch(model, state, t, y, hit):
-    """Switch what the event at (t, y) found, the located value and any other already across:
-    (approach, in_contact, engaged, onset (time, approach speed, contact index, any), separated
-    (n_contacts,) bool, overlap). ``overlap``: a contact switched on (its ``active_from``) with
-    its surfaces overlapping by more than `SEPARATION_OFFSET`."""
-    approach, in_contact = state.approach, state.in_contact
-    n, n_contacts = model.n_coordinates, len(model.contacts)
-    values = event_values(model, t, y, in_contact, state.engaged)
+def _switch(s: Setup, x: State, t, y, hit):
+    """Switch the states for the event at (t, y), the located value and any other already
+    across: (states, onset (time, logged value, episodic element, any), separated (K,) bool,
+    jumped). ``jumped``: a switched event value lies above `JUMP` there, so it jumped across
+    zero instead of crossing it (a contact switched on, by its ``active_from``, while its
+    surfaces overlap)."""
+    values = s.system.event_values(t, y, x.states)
     located = jnp.arange(values.shape[0]) == jnp.argmax(values)
-    switch = (located | (values > 0)) & hit
-    contact_switch, ball_switch = switch[:n_contacts], switch[n_contacts:]
-    engaged = jnp.where(ball_switch, ~state.engaged, state.engaged)
-    onset = contact_switch & ~in_contact
-    separated = contact_switch & in_contact
-    overlap = jnp.zeros((), bool)
-    speed = jnp.zeros((), t.dtype)
-    if n_contacts:
-        penetration, rate = model.contact_gaps(y[:n], y[n:])
-        approach = jnp.where(onset, rate, approach)
-        overlap = jnp.any(onset & (penetration > SEPARATION_OFFSET))
-        speed = jnp.sum(jnp.where(onset, rate, 0.0))
-        in_contact = jnp.where(contact_switch, ~in_contact, in_contact)
-    record = (t, speed, jnp.argmax(onset).astype(int) if n_contacts else jnp.asarray(-1), jnp.any(onset))
-    return approach, in_contact, engaged, record, separated, overlap
+    crossed = (located | (values > 0)) & hit
+    jumped = jnp.any(crossed & (values > JUMP))
+    states = s.system.on_events(t, y, x.states, crossed)
+    before, _ = s.system.episodes(x.states)
+    after, logged = s.system.episodes(states)
+    onset, separated = after & ~before, before & ~after
+    first = jnp.argmax(onset).astype(int) if onset.shape[0] else jnp.asarray(-1)
+    record = (t, jnp.sum(jnp.where(onset, logged, 0.0)), first, jnp.any(onset))
+    return states, record, separated, jumped
 
 
 class Setup(NamedTuple):
     """What every iteration of one solve shares."""
 
-    model: object  # the Mechanism
+    system: AbstractSystem
+    n_events: int  # the system's event values (static)
     term: diffrax.ODETerm
     solver: diffrax.AbstractSolver
     controller: diffrax.AbstractStepSizeController
@@ -202,9 +180,7 @@ class State(NamedTuple):
     h: jax.Array  # next step [s], as the controller proposed it
     control: object  # the step-size controller's state
     cell: jax.Array  # index of the next stop
-    approach: jax.Array  # (n_contacts,) approach speed of each contact in force [m/s]
-    in_contact: jax.Array  # (n_contacts,) bool
-    engaged: jax.Array  # (n_switched_balls,) bool, balls of paper-force bearings that touch
+    states: tuple  # the system's discrete states in force
     value: jax.Array  # the largest event value at (t, y) (`_event_value`): negative
     locating: jax.Array  # the held step crossed an event: its time is being located
     step_end: jax.Array  # [s] the held step's end
@@ -213,11 +189,13 @@ class State(NamedTuple):
     root: ITPState
     root_steps: jax.Array
     records: RecordState  # peaks and integrals of each stop interval so far
-    onsets: tuple  # (time, approach speed, contact index) of each onset, each (max_onsets,)
-    spans: tuple  # (end [s], peak force [N], its time [s]) of each onset's contact
+    onsets: tuple  # (time, logged value, episodic element) of each episode's onset, each
+    # (max_onsets,)
+    spans: tuple  # (end [s], peak, its time [s]) of each onset's episode (its element's
+    # episode column)
     n_onsets: jax.Array
-    max_drift: jax.Array  # the largest max |Phi(q, t)| at the end of a recorded step so far
-    current: jax.Array  # (n_contacts,) the onset slot of each contact in force, -1 for none
+    max_drift: jax.Array  # the largest `AbstractSystem.drift` at the end of a recorded step
+    current: jax.Array  # (K,) the onset slot of each episodic element's episode, -1 for none
     events: jax.Array  # events located
     steps: jax.Array
     rejected: jax.Array
@@ -228,31 +206,27 @@ class State(NamedTuple):
 class Row(NamedTuple):
     """What an iteration records for the output times: the step it took, [start, end] of the
     interpolant over [start, step_end] (end < step_end where it ends at an event), and the
-    switches in force during it."""
+    states in force during it."""
 
     recorded: jax.Array
     start: jax.Array
     end: jax.Array
     step_end: jax.Array
     dense: object
-    approach: jax.Array
-    engaged: jax.Array
+    states: tuple
 
 
 def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
-    """At t0: nothing in contact, the balls with delta_r > 0 engaged, the initial state's peaks
-    recorded in the first interval; done at once, with `RESULTS.invalid_input`, where
-    ``invalid`` (a rule of the run is broken)."""
-    model = s.model
-    n_contacts = len(model.contacts)
-    approach = jnp.zeros(n_contacts)
-    in_contact = jnp.zeros(n_contacts, bool)
-    engaged = model.ball_deflections(t0, model.q0) > 0.0
-    args = (approach, in_contact, engaged)
-    observed = s.recorder.observe(t0, y0, (approach, engaged))
+    """At t0: the system's initial states, the initial state's peaks recorded in the first
+    interval; done at once, with `RESULTS.invalid_input`, where ``invalid`` (a rule of the run
+    is broken)."""
+    states = s.system.initial_states(t0, y0)
+    n_episodic = s.system.episodes(states)[0].shape[0]
+    args = states
+    observed = s.recorder.observe(t0, y0, states)
     empty = no_records(s.recorder, s.stops.shape[0])
     first = lambda x, v: x.at[0].set(v)  # noqa: E731
-    peaks = jax.tree_util.tree_map(first, empty.peaks, point_peaks(s.recorder, t0, y0, observed))
+    peaks = jax.tree_util.tree_map(first, empty.peaks, point_peaks(s.recorder, t0, y0, states, observed))
     error_order = s.solver.error_order(s.term)
     func = s.solver.func
     t_next, control = s.controller.init(s.term, t0, s.t1, y0, dt0, args, func, error_order)
@@ -274,10 +248,8 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         h=t_next - t0,
         control=control,
         cell=jnp.asarray(0),
-        approach=approach,
-        in_contact=in_contact,
-        engaged=engaged,
-        value=_event_value(model, t0, y0, in_contact, engaged),
+        states=states,
+        value=_event_value(s, t0, y0, states),
         locating=jnp.asarray(False),
         step_end=t0,
         step_dense=dense,
@@ -288,8 +260,8 @@ def initial_state(s: Setup, t0, y0, dt0, max_onsets: int, invalid) -> State:
         onsets=(slots(jnp.nan), slots(jnp.nan), slots(-1)),
         spans=(slots(jnp.nan), slots(-jnp.inf), slots(jnp.nan)),
         n_onsets=jnp.asarray(0),
-        max_drift=_drift(model, t0, y0),
-        current=jnp.full(n_contacts, -1),
+        max_drift=s.system.drift(t0, y0),
+        current=jnp.full(n_episodic, -1),
         events=jnp.asarray(0),
         steps=jnp.asarray(0),
         rejected=jnp.asarray(0),
@@ -303,16 +275,12 @@ class _Outcome(NamedTuple):
     fields from ``t`` to ``root_steps`` it sets)."""
 
     row: Row  # the step recorded by this iteration (``row.recorded``)
-    onset: tuple  # (time, approach speed, contact index, any)
-    separated: jax.Array  # (n_contacts,) bool
+    onset: tuple  # (time, logged value, episodic element, any)
+    separated: jax.Array  # (K,) bool: episodes that ended
     at_stop: jax.Array  # the iteration ends at the next stop
     located: jax.Array
     failure: RESULTS  # successful unless this iteration failed
     rejected: jax.Array
-
-
-def _args(x: State):
-    return (x.approach, x.in_contact, x.engaged)
 
 
 def _select(where, a, b):
@@ -336,49 +304,52 @@ def _no_onset(t):
 
 def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
     """One root-finder step on the held step; where the bracket is narrow enough, the event."""
-    model = s.model
     interpolation = _interpolation(s, x.t, x.step_end, x.step_dense)
 
     def along(t):  # the event value along the held step's interpolant
-        return _event_value(model, t, interpolation.evaluate(t), x.in_contact, x.engaged)
+        return _event_value(s, t, interpolation.evaluate(t), x.states)
 
     root = jax.lax.stop_gradient(itp_step(x.root, along(x.root.next)))  # tangents: `_event_time`
     located = jnp.abs(root.upper - root.lower) < EVENT_TIME_TOLERANCE
     lost = ~located & (x.root_steps + 1 >= ROOT_STEPS)
 
+    def values_along(t):
+        return s.system.event_values(t, interpolation.evaluate(t), x.states)
+
     def event():  # the event, and the event value after its switch
-        t_event = _event_time(along, root.upper)
+        # the located event's own value, not the largest's: JAX's derivative of a maximum
+        # divides by how many entries equal it, and none may where the compiled program rounds
+        # the maximum and the entry apart (a NaN event time was seen with two bearings' balls)
+        which = jax.lax.stop_gradient(jnp.argmax(values_along(root.upper)))
+        t_event = _event_time(lambda t: values_along(t)[which], root.upper)
         y_event = interpolation.evaluate(t_event)
-        approach, in_contact, engaged, onset, separated, overlap = _switch(model, x, t_event, y_event, located)
-        value = _event_value(model, t_event, y_event, in_contact, engaged)
-        return t_event, y_event, (approach, in_contact, engaged), onset, separated, overlap, value
+        states, onset, separated, jumped = _switch(s, x, t_event, y_event, located)
+        value = _event_value(s, t_event, y_event, states)
+        return t_event, y_event, states, onset, separated, jumped, value
 
     def no_event():
         none = _no_onset(root.upper)
-        return root.upper, x.y, _args(x), none, jnp.zeros_like(x.in_contact), jnp.asarray(False), x.value
+        return root.upper, x.y, x.states, none, jnp.zeros_like(x.current, bool), jnp.asarray(False), x.value
 
     # a batch (unvmapped predicate) evaluates the event only in iterations where a member has one
-    t_event, y_event, switches, onset, separated, overlap, value = jax.lax.cond(
+    t_event, y_event, states, onset, separated, jumped, value = jax.lax.cond(
         eqxi.unvmap_any(located), event, no_event
     )
     failure = RESULTS.where(lost, RESULTS.event_not_located, RESULTS.successful)
-    failure = RESULTS.where(located & overlap, RESULTS.contact_overlap, failure)
-    approach, in_contact, engaged = _select(located, switches, _args(x))
+    failure = RESULTS.where(located & jumped, RESULTS.contact_overlap, failure)
     state = x._replace(
         t=jnp.where(located, t_event, x.t),
         y=jnp.where(located, y_event, x.y),
         made_jump=x.made_jump | located,
         h=jnp.where(located, x.step_h, x.h),
-        approach=approach,
-        in_contact=in_contact,
-        engaged=engaged,
+        states=_select(located, states, x.states),
         value=jnp.where(located, value, x.value),
         locating=~located,
         root=root,
         root_steps=x.root_steps + 1,
     )
     return state, _Outcome(
-        row=Row(located, x.t, t_event, x.step_end, x.step_dense, x.approach, x.engaged),
+        row=Row(located, x.t, t_event, x.step_end, x.step_dense, x.states),
         onset=onset,
         separated=separated,
         at_stop=located & (t_event >= _stop(s, x)),
@@ -391,7 +362,7 @@ def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
 def _attempt(s: Setup, x: State) -> tuple[State, _Outcome]:
     """A step attempt: the solver's step to the proposed time, cut at the next stop, and the
     controller's verdict; an accepted step across an event starts locating it."""
-    model, args = s.model, _args(x)
+    args = x.states
     stop = _stop(s, x)
     last = x.h >= stop - x.t
     h = jnp.where(last, stop - x.t, x.h)
@@ -409,7 +380,7 @@ def _attempt(s: Setup, x: State) -> tuple[State, _Outcome]:
     h_next = jnp.where(jnp.isfinite(next_t1), next_t1 - jnp.where(keep, t_b, x.t), 0.2 * h)
     # a step cut short at a stop proposes from its short length: go on with the longer one
     h_next = jnp.where(keep & last, jnp.maximum(h_next, x.h), h_next)
-    value_b = _event_value(model, t_b, y1, x.in_contact, x.engaged)
+    value_b = _event_value(s, t_b, y1, x.states)
     crossed = keep & (value_b > 0)
     accept = keep & ~crossed
     started = jax.lax.stop_gradient(itp_start(x.t, t_b, x.value, value_b, EVENT_TIME_TOLERANCE))
@@ -438,9 +409,9 @@ def _attempt(s: Setup, x: State) -> tuple[State, _Outcome]:
         root_steps=jnp.zeros_like(x.root_steps),
     )
     return state, _Outcome(
-        row=Row(accept, x.t, t_b, t_b, dense, x.approach, x.engaged),
+        row=Row(accept, x.t, t_b, t_b, dense, x.states),
         onset=_no_onset(x.t),
-        separated=jnp.zeros_like(x.in_contact),
+        separated=jnp.zeros_like(x.current, bool),
         at_stop=accept & last,
         located=jnp.asarray(False),
         failure=failure,
@@ -453,8 +424,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     root-finder step where an event is being located. Returns the next state and the step it
     recorded. (The drivers' loops stop at ``done``; under vmap a while loop keeps the state of
     a member whose condition is false.)"""
-    model = s.model
-    if model.contacts or model.n_switched_balls:
+    if s.n_events:
         new, o = jax.lax.cond(x.locating, lambda x: _locate(s, x), lambda x: _attempt(s, x), x)
     else:
         new, o = _attempt(s, x)
@@ -465,7 +435,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         row.recorded,
         lambda: step_stats(
             s.recorder, _interpolation(s, row.start, row.step_end, row.dense), row.start, row.end,
-            (row.approach, row.engaged), _running(s, x, peaks),
+            row.states, _running(s, x, peaks),
         ),
         lambda: (no_peaks(s.recorder), jnp.zeros_like(integrals)),
     )
@@ -489,7 +459,7 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
         onsets=onsets,
         spans=spans,
         n_onsets=x.n_onsets + (onset & ~overflow),
-        max_drift=jnp.where(row.recorded, jnp.maximum(x.max_drift, _drift(model, new.t, new.y)), x.max_drift),
+        max_drift=jnp.where(row.recorded, jnp.maximum(x.max_drift, s.system.drift(new.t, new.y)), x.max_drift),
         current=current,
         events=x.events + o.located,
         steps=x.steps + stepped,
@@ -500,50 +470,45 @@ def advance(s: Setup, x: State) -> tuple[State, Row]:
     return state, row
 
 
-def _drift(model, t, y):
-    """max |Phi(q, t)| [m or rad], the constraint violation at y = [q, qd] (0 without joints)."""
-    if not model.joints:
-        return jnp.zeros((), y.dtype)
-    return jnp.max(jnp.abs(model.constraints(y[: model.n_coordinates], t)))
-
-
-def _contact_columns(s: Setup):
-    """The `Peaks` columns of the contacts' normal forces (`AbstractRecorder.contact_columns`):
-    a slice where they are consecutive (no gather), else their indices."""
-    columns = s.recorder.contact_columns
+def _episode_columns(s: Setup):
+    """The `Peaks` columns of the episodic elements' episode peaks
+    (`AbstractRecorder.episode_columns`): a slice where they are consecutive (no gather), else
+    their indices."""
+    columns = s.recorder.episode_columns
     if columns == tuple(range(columns[0], columns[0] + len(columns))):
         return slice(columns[0], columns[0] + len(columns))
     return jnp.asarray(columns)
 
 
-def _in_slot(x: State):
-    """(K, max_onsets) bool: contact c is in contact and its current contact is onset slot s."""
+def _in_slot(s: Setup, x: State):
+    """(K, max_onsets) bool: episodic element k is in an episode and it is onset slot s."""
     slots = jnp.arange(x.spans[0].shape[0])
-    return (slots[None, :] == x.current[:, None]) & x.in_contact[:, None]
+    return (slots[None, :] == x.current[:, None]) & s.system.episodes(x.states)[0][:, None]
 
 
 def _running(s: Setup, x: State, peaks: Peaks) -> Peaks:
     """The peaks so far that decide whether a step is refined between its points: the stop
-    interval's, and for each contact's force the lower of that and its current contact's so far
-    (-inf outside a contact), so that both peaks are the interpolant's."""
+    interval's, and for each episode column the lower of that and the current episode's so far
+    (-inf outside an episode), so that both peaks are the interpolant's."""
     if not x.current.shape[0]:
         return peaks
-    so_far = jnp.max(jnp.where(_in_slot(x), x.spans[1][None, :], -jnp.inf), axis=1)
-    columns = _contact_columns(s)
+    so_far = jnp.max(jnp.where(_in_slot(s, x), x.spans[1][None, :], -jnp.inf), axis=1)
+    columns = _episode_columns(s)
     contact = jnp.minimum(peaks.values[columns], so_far)
     return peaks._replace(values=peaks.values.at[columns].set(contact))
 
 
 def _spans(s: Setup, x: State, recorded, peaks: Peaks, separated, t_event, onset, index):
-    """``spans`` and ``current`` after an iteration: each contact's peak in a recorded step
-    (``peaks``: the step's) joins its current contact's, the contacts that ``separated`` end at
-    ``t_event``, and an ``onset`` of contact ``index`` takes the next slot."""
+    """``spans`` and ``current`` after an iteration: each episodic element's episode peak in a
+    recorded step (``peaks``: the step's) joins its current episode's, the episodes that
+    ``separated`` end at ``t_event``, and an ``onset`` of element ``index`` takes the next
+    slot."""
     if not x.current.shape[0]:
         return x.spans, x.current
     slots = jnp.arange(x.spans[0].shape[0])
     end, peak, peak_time = x.spans
-    columns = _contact_columns(s)
-    match = _in_slot(x)  # at most one contact per slot
+    columns = _episode_columns(s)
+    match = _in_slot(s, x)  # at most one element per slot
     value = jnp.max(jnp.where(match, peaks.values[columns][:, None], -jnp.inf), axis=0)
     when = jnp.sum(jnp.where(match, peaks.times[columns][:, None], 0.0), axis=0)
     later = recorded & jnp.any(match, axis=0) & (value > peak)

@@ -5,6 +5,8 @@ that a run under another label compiles nothing."""
 
 from __future__ import annotations
 
+import importlib.util
+
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
@@ -44,12 +46,21 @@ def label_key(label: str) -> jax.Array:
     return jnp.asarray(_LABELS.index(label))
 
 
+def bar_class():
+    """tqdm's bar: the notebook's widget where ipywidgets is installed (`tqdm.auto`), else the
+    text bar, which `tqdm.auto` would fall back to after a TqdmWarning ("IProgress not found")."""
+    if importlib.util.find_spec("ipywidgets") is None:
+        from tqdm.std import tqdm
+    else:
+        from tqdm.auto import tqdm
+    return tqdm
+
+
 def _advance(key, fraction, span):
     """Host side of `report`: fraction 0 opens a bar for the label of ``key`` (closing an
     older one), a larger fraction moves it forward, 1 closes it. The bar counts simulated
     seconds of the span [s]."""
-    from tqdm.auto import tqdm
-
+    tqdm = bar_class()
     label, fraction, span = _LABELS[int(key)], float(fraction), float(span)
     bar = _BARS.get(label)
     if bar is None or fraction == 0.0:

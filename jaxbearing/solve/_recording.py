@@ -1,7 +1,7 @@
 """What the solve records of every step it takes, whatever it records: the maxima of P peak
 columns and the integrals of I integrands over each interval between stops, defined at one
 state by an `AbstractRecorder` (the application's: `jaxbearing.recorder.Recorder` for a
-mechanism's forces and metrics). The engine knows columns, not what they hold.
+mechanism's force elements and metrics). The engine knows columns, not what they hold.
 
 Each step contributes the values at its end and at its 3 Gauss–Legendre points, and their
 Gauss–Legendre quadrature over the step; its peaks also at the vertices of parabolas through
@@ -44,8 +44,8 @@ class RecordState(NamedTuple):
 
 
 class AbstractRecorder(eqx.Module):
-    """What the solve records at one state y = [q, qd] with the ``switches`` in force (the
-    right-hand side's: each contact's approach speed, each switched ball's engagement).
+    """What the solve records at one state y with the system's discrete ``states`` in force
+    (`AbstractSystem`).
 
     ``observe`` computes what a state holds (any pytree: the forces); ``peaks`` and
     ``integrands`` read it. Peak columns are evaluated between a step's points in groups
@@ -59,8 +59,8 @@ class AbstractRecorder(eqx.Module):
         carried_columns: for each carried array, the peak column whose maximum it follows
             (increasing, each inside one vertex group).
         vertex_groups: ((start, stop), ...) column ranges, in order, covering [0, P).
-        contact_columns: for each impact contact, the column of its normal force, whose maximum
-            over each contact the engine records (`solution.Contacts`).
+        episode_columns: for each element with episodes (`AbstractSystem.episodes`, in that
+            order), the column whose maximum over each of its episodes the engine logs.
     """
 
     @property
@@ -85,22 +85,22 @@ class AbstractRecorder(eqx.Module):
 
     @property
     @abc.abstractmethod
-    def contact_columns(self) -> tuple: ...
+    def episode_columns(self) -> tuple: ...
 
     @abc.abstractmethod
-    def observe(self, t, y, switches):
+    def observe(self, t, y, states):
         """What the state (t, y) holds, a pytree read by `peaks` and `integrands`."""
 
     @abc.abstractmethod
-    def peaks(self, t, y, observed) -> tuple:
-        """(values (P,), carried arrays) at (t, y) with ``observed`` there."""
+    def peaks(self, t, y, states, observed) -> tuple:
+        """(values (P,), carried arrays) at (t, y) with ``states`` and ``observed`` there."""
 
     @abc.abstractmethod
-    def integrands(self, t, y, observed) -> jax.Array:
-        """The integrands (I,) at (t, y) with ``observed`` there."""
+    def integrands(self, t, y, states, observed) -> jax.Array:
+        """The integrands (I,) at (t, y) with ``states`` and ``observed`` there."""
 
     @abc.abstractmethod
-    def peaks_at(self, group: int, interpolation, times, switches) -> tuple:
+    def peaks_at(self, group: int, interpolation, times, states) -> tuple:
         """The columns of vertex group ``group``, each at its own time of ``times`` [s] along
         ``interpolation`` (y(t)), and the carried arrays whose columns lie in the group, each
         at its column's time."""
@@ -118,13 +118,13 @@ def no_records(recorder: AbstractRecorder, rows: int) -> RecordState:
     return RecordState(no_peaks(recorder, (rows,)), jnp.zeros((rows, recorder.n_integrals)))
 
 
-def point_peaks(recorder: AbstractRecorder, t, y, observed) -> Peaks:
-    """`Peaks` of the single point (t, y) with ``observed`` there."""
-    values, carried = recorder.peaks(t, y, observed)
+def point_peaks(recorder: AbstractRecorder, t, y, states, observed) -> Peaks:
+    """`Peaks` of the single point (t, y) with ``states`` and ``observed`` there."""
+    values, carried = recorder.peaks(t, y, states, observed)
     return Peaks(values, jnp.full_like(values, t), tuple(carried))
 
 
-def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, switches, running: Peaks):
+def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, states, running: Peaks):
     """(`Peaks`, integrals (I,)) over [t_a, t_b] of one step's interpolant: peaks at t_b and at
     the 3 Gauss–Legendre points, and, where the step may rise above ``running`` (`Peaks` so
     far), at each column's `_vertices`; the Gauss–Legendre quadrature of the integrands.
@@ -133,8 +133,8 @@ def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, switches, ru
     select."""
     times = jnp.concatenate([t_a + (t_b - t_a) * jnp.asarray(GAUSS_NODES), t_b[None]])
     ys = jnp.stack([interpolation.evaluate(t) for t in times])  # alone: docs/performance.md
-    observed = jax.vmap(lambda t, y: recorder.observe(t, y, switches))(times, ys)
-    points = jax.vmap(lambda *a: point_peaks(recorder, *a))(times, ys, observed)
+    observed = jax.vmap(lambda t, y: recorder.observe(t, y, states))(times, ys)
+    points = jax.vmap(lambda t, y, o: point_peaks(recorder, t, y, states, o))(times, ys, observed)
     peaks = _largest_of(recorder.carried_columns, points)
     # between the points: the interpolant at the vertex of a parabola through them, for the
     # columns whose parabola rises there, in a step that may rise above the span's peaks so far
@@ -151,7 +151,7 @@ def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, switches, ru
         shapes = _carried_in(recorder, start, stop)
         value, held = jax.lax.cond(
             eqxi.unvmap_any(jnp.any(may_rise[start:stop])),
-            lambda g=g, start=start, stop=stop: _group(recorder, g, interpolation, at[start:stop], switches),
+            lambda g=g, start=start, stop=stop: _group(recorder, g, interpolation, at[start:stop], states),
             lambda start=start, stop=stop, shapes=shapes: (
                 jnp.full(stop - start, -jnp.inf, at.dtype),
                 tuple(jnp.zeros(s, at.dtype) for s in shapes),
@@ -162,7 +162,7 @@ def step_stats(recorder: AbstractRecorder, interpolation, t_a, t_b, switches, ru
     top = jnp.where(may_rise, jnp.concatenate(values), -jnp.inf)
     peaks = add_peaks(recorder.carried_columns, peaks, Peaks(top, at, tuple(carried)))
     gauss = jax.tree_util.tree_map(lambda x: x[:3], observed)
-    integrands = jax.vmap(recorder.integrands)(times[:3], ys[:3], gauss)
+    integrands = jax.vmap(lambda t, y, o: recorder.integrands(t, y, states, o))(times[:3], ys[:3], gauss)
     return peaks, (t_b - t_a) * _gauss_sum(integrands)
 
 
@@ -173,9 +173,9 @@ def _carried_in(recorder: AbstractRecorder, start: int, stop: int) -> tuple:
     )
 
 
-def _group(recorder: AbstractRecorder, g: int, interpolation, times, switches) -> tuple:
+def _group(recorder: AbstractRecorder, g: int, interpolation, times, states) -> tuple:
     """`AbstractRecorder.peaks_at` of group ``g``, as (values, tuple of carried arrays)."""
-    values, carried = recorder.peaks_at(g, interpolation, times, switches)
+    values, carried = recorder.peaks_at(g, interpolation, times, states)
     return values, tuple(carried)
 
 

@@ -26,9 +26,8 @@ class Carry(NamedTuple):
     """State of the segment loop between two segments."""
 
     state: State
-    # at the output times: (states [q, qd] (2n,), approach speeds in force (n_contacts,),
-    # engaged balls (n_switched_balls,)), in blocks of ``block`` times, (n_blocks, block, ...):
-    # output r is row [r // block, r % block]
+    # at the output times: (y, the leaves of the discrete states in force, a list), in blocks of
+    # ``block`` times, each (n_blocks, block, ...): output r is row [r // block, r % block]
     outputs: tuple
     pending: tuple  # the rows of the block that holds time ``written`` (block, ...): written to
     # ``outputs`` when that block is full (`output_rows` reads the last one here)
@@ -36,7 +35,7 @@ class Carry(NamedTuple):
     reported: jax.Array  # progress reported so far (`_progress.report`)
 
 
-class Driver(NamedTuple):
+class SegmentPlan(NamedTuple):
     """What every segment of one solve shares."""
 
     core: Setup
@@ -62,24 +61,27 @@ def padded_times(ts, block: int) -> jax.Array:
     return jnp.concatenate([ts, jnp.full(-ts.shape[0] % block, jnp.inf, ts.dtype)])
 
 
-def initial_carry(d: Driver, state: State) -> Carry:
+def initial_carry(d: SegmentPlan, state: State) -> Carry:
     """The carry before the first segment: no outputs written."""
-    n = state.y.shape[0]
     blocks = d.ts.shape[0] // d.block
 
     def empty(*shape):
-        return (
-            jnp.full(shape + (n,), jnp.nan),
-            jnp.zeros(shape + state.approach.shape),
-            jnp.zeros(shape + state.engaged.shape, bool),
-        )
+        zeros = lambda a: jnp.zeros(shape + jnp.shape(a), jnp.result_type(a))  # noqa: E731
+        return jnp.full(shape + state.y.shape, jnp.nan), [zeros(a) for a in _leaves(state.states)]
 
     reported = report(d.progress, state.t, d.t0, d.core.t1, jnp.asarray(-1.0))
     return Carry(state, empty(blocks, d.block), empty(d.block), jnp.asarray(0), reported)
 
 
-def _empty_rows(d: Driver, x: State) -> Row:
-    """A segment's record of its steps before it starts: starts +inf (none recorded)."""
+def _leaves(states) -> list:
+    """The arrays of the discrete ``states``, as the buffers of `eqxi.while_loop` hold them:
+    a list (its buffers cannot hold an empty tuple, which a state may contain)."""
+    return jax.tree_util.tree_leaves(states)
+
+
+def _empty_rows(d: SegmentPlan, x: State) -> Row:
+    """A segment's record of its steps before it starts: starts +inf (none recorded); the
+    states as their leaves (`_leaves`)."""
     rows = lambda a: jnp.zeros((d.segment_steps,) + jnp.shape(a), jnp.result_type(a))  # noqa: E731
     t = jnp.full(d.segment_steps, jnp.inf)
     return Row(
@@ -88,12 +90,11 @@ def _empty_rows(d: Driver, x: State) -> Row:
         end=t,
         step_end=t,
         dense=jax.tree_util.tree_map(rows, x.step_dense),
-        approach=rows(x.approach),
-        engaged=rows(x.engaged),
+        states=[rows(a) for a in _leaves(x.states)],
     )
 
 
-def segment(d: Driver, c: Carry):
+def segment(d: SegmentPlan, c: Carry):
     """``segment_steps`` iterations of the core, and the output times they passed."""
     x0 = c.state
 
@@ -104,6 +105,7 @@ def segment(d: Driver, c: Carry):
     def body(loop):
         i, x, rows, n = loop
         x, row = advance(d.core, x)
+        row = row._replace(states=_leaves(row.states))
         write = lambda buffer, v: buffer.at[n].set(v, pred=row.recorded)  # noqa: E731
         # a leaf of the rows as `eqxi.while_loop` hands them to the body: a buffer or an array
         rows = jax.tree_util.tree_map(write, rows, row, is_leaf=lambda b: hasattr(b, "at"))
@@ -123,7 +125,7 @@ def segment(d: Driver, c: Carry):
     return Carry(x, outputs, pending, written, reported)
 
 
-def slot(d: Driver, c: Carry, index):
+def slot(d: SegmentPlan, c: Carry, index):
     """One slot of the segment loop: `segment` (once the run is done, under `jax.vmap` every
     member, one of no iterations), and whether the slot ran. Not a `lax.cond` around the
     segment: reverse mode traced the segment's backward pass once per branch."""
@@ -131,23 +133,24 @@ def slot(d: Driver, c: Carry, index):
     return segment(d, c), ~c.state.done
 
 
-def _rows_at(d: Driver, rows: Row, n, times, x0: State):
-    """(states, approach speeds, engaged balls) at ``times`` [s] from the recorded step that
-    starts last at or before each (after an event, the step that starts there); ``x0``'s where
-    the segment recorded none."""
+def _rows_at(d: SegmentPlan, rows: Row, n, times, x0: State):
+    """(y, the leaves of the discrete states) at ``times`` [s] from the recorded step that
+    starts last at or
+    before each (after an event, the step that starts there); ``x0``'s where the segment
+    recorded none."""
 
     def one(t):
         i = jnp.clip(jnp.searchsorted(rows.start, t, side="right") - 1, 0, d.segment_steps - 1)
         row = jax.tree_util.tree_map(lambda a: a[i], rows)
         y = _interpolation(d.core, row.start, row.step_end, row.dense).evaluate(t)
-        return y, row.approach, row.engaged
+        return y, row.states
 
     values = jax.vmap(one)(times)
-    start = (x0.y, x0.approach, x0.engaged)
-    return tuple(jnp.where(n > 0, v, s) for v, s in zip(values, start))
+    start = (x0.y, _leaves(x0.states))
+    return jax.tree_util.tree_map(lambda v, s: jnp.where(n > 0, v, s), values, start)
 
 
-def _write_outputs(d: Driver, c: Carry, recorded: Row, n, t_end, through_end):
+def _write_outputs(d: SegmentPlan, c: Carry, recorded: Row, n, t_end, through_end):
     """(outputs, pending, written) with this segment's output times evaluated from its recorded
     steps: those in [start, t_end), and t_end as well where the run ends (``through_end``), so
     that each time is evaluated exactly once, by the last segment that starts at or before it.
@@ -172,28 +175,41 @@ def _write_outputs(d: Driver, c: Carry, recorded: Row, n, t_end, through_end):
         ours = (j * block + rows >= c.written) & mine(times)
         values = _rows_at(d, recorded, n, jnp.clip(times, x0.t, t_end), x0)
         # rows before ours (in the first block) were evaluated by earlier segments
-        pending = tuple(_where_rows(ours, x, old) for x, old in zip(values, pending))
+        pending = jax.tree_util.tree_map(lambda x, old: _where_rows(ours, x, old), values, pending)
         count = count + jnp.sum(ours)
         full = (j + 1) * block <= c.written + count
-        outputs = tuple(b.at[j].set(x, pred=full) for b, x in zip(outputs, pending))
+        # a leaf of the outputs as `eqxi.while_loop` hands them to the body: a buffer or an array
+        outputs = jax.tree_util.tree_map(
+            lambda b, x: b.at[j].set(x, pred=full), outputs, pending, is_leaf=lambda b: hasattr(b, "at")
+        )
         return i + 1, count, pending, outputs
 
     _, count, pending, outputs = eqxi.while_loop(
         more,
         body,
         (jnp.asarray(0), jnp.asarray(0), c.pending, c.outputs),
-        max_steps=c.outputs[0].shape[0],
+        max_steps=c.outputs[0].shape[0],  # the blocks
         buffers=lambda carry: carry[3],
         kind=d.kind,
     )
     return outputs, pending, c.written + count
 
 
-def output_rows(c: Carry, start, size: int, in_blocks: bool = False) -> tuple:
-    """Rows [start, start + size) of the outputs after the run, one an output time: from the
-    blocks, and from the pending block for the times it holds. ``in_blocks``: the rows lie in
-    the full blocks (before ``written // block * block``), so the blocks alone hold them."""
-    block = c.pending[0].shape[0]
+def run_segments(d: SegmentPlan, state: State, max_segments: int):
+    """The segment loop from ``state``: ``max_segments`` slots (`slot`), a `lax.scan`; the
+    final `Carry` and how many segments ran."""
+    final, used = jax.lax.scan(
+        lambda c, i: slot(d, c, i), perturbed(initial_carry(d, state)), jnp.arange(max_segments)
+    )
+    return final, jnp.sum(used)
+
+
+def output_rows(c: Carry, structure, start, size: int, in_blocks: bool = False) -> tuple:
+    """Rows [start, start + size) of the outputs after the run, one an output time, as (y,
+    discrete states of ``structure``, their treedef): from the blocks, and from the pending
+    block for the times it holds. ``in_blocks``: the rows lie in the full blocks (before
+    ``written // block * block``), so the blocks alone hold them."""
+    block = c.pending[0].shape[0]  # the pending block's y
     index = start + jnp.arange(size)
 
     def rows(blocks, pending):
@@ -203,4 +219,5 @@ def output_rows(c: Carry, start, size: int, in_blocks: bool = False) -> tuple:
             return x
         return _where_rows(index // block == c.written // block, pending[index % block], x)
 
-    return tuple(rows(b, p) for b, p in zip(c.outputs, c.pending))
+    y, leaves = jax.tree_util.tree_map(rows, c.outputs, c.pending)
+    return y, jax.tree_util.tree_unflatten(structure, leaves)

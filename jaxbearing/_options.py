@@ -7,13 +7,21 @@ from collections.abc import Mapping
 
 import equinox as eqx
 
-from ..solution import AbstractRecord
+from ._checks import is_concrete
+from .solution import EDGE_TOLERANCE, AbstractRecord
 
 
 def _records(records) -> tuple:
     """``records`` (name -> `metrics.Peak` / `metrics.Mean`) as ((name, record), ...); a
     TypeError or ValueError naming what is wrong."""
     if isinstance(records, tuple) and all(isinstance(r, tuple) and len(r) == 2 for r in records):
+        names = [name for name, _ in records]
+        repeated = sorted({repr(n) for n in names if names.count(n) > 1})
+        if repeated:
+            raise ValueError(
+                f"records: each name must be given once; got {', '.join(repeated)} more than "
+                "once (a record's value is read by its name: sol.records[name])."
+            )
         records = dict(records)
     if not isinstance(records, Mapping):
         raise TypeError(
@@ -29,6 +37,30 @@ def _records(records) -> tuple:
                 f"scalar, x a jaxbearing.solution.Instant); got {type(record).__name__}."
             )
     return tuple(records.items())
+
+
+def check_record_windows(records, t1, window_start=None) -> None:
+    """A `ValueError` for the first of ``records`` ((name, record), ...) whose window lies
+    past the end of a run to ``t1`` [s]: it ends after t1, or starts at or after t1 (a
+    ``t_min`` of None starts it at ``window_start``, the model's). Nothing where t1 or
+    ``window_start`` is traced: then such a record reads NaN (`metrics.reached`)."""
+    if not is_concrete(t1, window_start):
+        return
+    end = float(t1)
+    for name, record in records:
+        start = record.t_min if record.t_min is not None else window_start
+        if record.t_max is not None and record.t_max > end + EDGE_TOLERANCE:
+            what = f"ends at t_max = {record.t_max:.6g} s, after"
+        elif start is not None and float(start) >= end - EDGE_TOLERANCE:
+            origin = "t_min" if record.t_min is not None else "the model's window_start"
+            what = f"starts at {origin} = {float(start):.6g} s, at or after"
+        else:
+            continue
+        raise ValueError(
+            f"records[{name!r}]: its window {what} the end of the run, t1 = {end:.6g} s, so "
+            "it would have no value: simulate to a later t1, or give the record a window "
+            "within the run (its t_min, t_max)."
+        )
 
 
 def record_edges(records) -> tuple:

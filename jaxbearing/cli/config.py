@@ -30,7 +30,7 @@ Rules, each broken one raising a `ConfigError` that names the file and the key:
 - numbers are TOML integers or floats, finite, in SI units; strings (``"40 um"``), booleans,
   arrays, tables and dates are refused where a number is expected;
 - ``designation``, ``cage`` and ``ball_force`` are one of the strings listed;
-- the physical rules (clearance >= 0, restitution in (0, 1], ...) are those of the model's
+- the physical rules (clearance from -0.01 to 0.1 of the ball diameter, restitution in (0, 1], ...) are those of the model's
   constructors, applied when the case is built (`xu2014_models`).
 """
 
@@ -43,7 +43,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import NamedTuple
 
-from .params import CATALOGUE, ROLLER_CATALOGUE, BallForce, CageMode
+from ..params import CATALOGUE, ROLLER_CATALOGUE, BallForce, CageMode
 
 __all__ = [
     "XU2014",
@@ -207,7 +207,7 @@ def xu2014_models(overrides: Mapping[str, Mapping[str, object]], source="configu
     ``{True: model with impact, False: model without}``. A value that breaks a rule of the
     model's constructors raises a `ConfigError` with ``source`` and the constructor's message
     (the parameter, the value and what is allowed)."""
-    from .cases import xu2014
+    from ..cases import xu2014
 
     kwargs = xu2014_kwargs(overrides)
     try:

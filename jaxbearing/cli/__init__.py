@@ -11,7 +11,13 @@ and writes into ``--out`` (default ``results/xu2014``):
   (`provenance.parameters`), each case's summary (`report.summarize` plus wall times) and the
   Table 5 comparison;
 - ``fig12_slider_target.png`` ... ``fig15_ball_loads.png``: the paper's Figs. 12–15 over
-  `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid.
+  `cases.FIGURE_WINDOW` (one crank revolution), with and without impact overlaid. The summary
+  says where each of its peaks (over the whole run) lies against them, and gives the figures'
+  own peak where it lies outside (`report.figure_peaks`).
+
+The memory the run needs (its output samples in up to `OUTPUT_COPIES` copies, the solve's
+segment slots) is checked against the memory available before anything is solved: one line on
+stderr naming both and the fix, exit status 2 (`_memory_problem`).
 
 ``--out`` is checked before anything is solved: a file, a folder that cannot be created or
 written, or a folder that holds other files than a result of this command stops it with one
@@ -25,8 +31,11 @@ line on stderr; the staging folder keeps the cases it finished (it is deleted wh
 none):
 
 - a failed solve: exit status 1, the figures of the cases finished drawn;
+- any other error: the marker says so; an error of memory ends with exit status 1 and the fix,
+  any other goes on with its traceback;
 - Ctrl-C (SIGINT) or SIGTERM: exit status 130 or 143, at once, whatever is being computed, drawn
-  or written (`_StopOnSignals`).
+  or written (`_StopOnSignals`). Once the command has returned, SIGINT is ignored while the
+  process ends.
 
 The console shows what each case is doing and how long it took (stderr), the summaries and
 Table 5; a warning says when --t1 stops before the slider first strikes the target (both cases
@@ -41,7 +50,7 @@ are then the same).
     restitution = 0.8
 
 The tables and keys (bearing: clearance, damping, cage, ball_force; impact: restitution,
-friction, contact_on; crank: speed) and the rules are in `jaxbearing.config`. The file is checked
+friction, contact_on; crank: speed) and the rules are in `jaxbearing.cli.config`. The file is checked
 and both models are built before anything runs: an unknown key, a value of the wrong type (a
 string such as "40 um", a boolean, an array) or one that breaks a rule of the model stops the
 command with a message naming the file and the key or rule (exit status 2).
@@ -66,6 +75,8 @@ DEFAULT_OUT = "results/xu2014"
 DEFAULT_DT = 1e-6  # [s] output spacing: impacts last ~100 µs and their peaks need fine sampling
 DEFAULT_CSV_DT = 1e-5  # [s] spacing of the CSV rows
 
+OUTPUT_COPIES = 4  # copies of the output samples alive at once, at most (docs/xu2014.md, 'Memory')
+SEGMENT_BYTES = 9  # [B] a segment slot of the solve's scan: its index (int64) and whether it ran
 CASES = (("with_impact", "with impact", True), ("without_impact", "without impact", False))
 FIRST_CONTACT = 0.091  # [s] first slider-target contact of the paper's case (docs/xu2014.md)
 
@@ -145,7 +156,7 @@ def _count(low: int):
 def run_xu2014(args) -> int:
     """The ``xu2014`` command: check the settings, then run, report and write each case;
     SIGINT and SIGTERM stop it at once from the start (`_StopOnSignals`)."""
-    with _StopOnSignals() as stopper:
+    with _StopOnSignals(getattr(args, "ends_process", False)) as stopper:
         return _xu2014(args, stopper)
 
 
@@ -153,6 +164,7 @@ def _xu2014(args, stopper) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+    from .. import cases
     from . import config
 
     try:
@@ -162,6 +174,10 @@ def _xu2014(args, stopper) -> int:
         return 2
     if args.rtol == 0.0 and args.atol == 0.0:
         print("jaxbearing xu2014: --rtol and --atol must not both be 0", file=sys.stderr)
+        return 2
+    problem = _memory_problem(args, models[True])
+    if problem:
+        print(f"jaxbearing xu2014: {problem}", file=sys.stderr)
         return 2
     ts, stride = _output_times(args)
     out = Path(args.out)
@@ -195,7 +211,8 @@ def _xu2014(args, stopper) -> int:
                 _warn(f"no slider-target contact in 0-{args.t1:g} s, so the cases with and "
                       "without impact give the same results; the first contact comes near "
                       f"t = {FIRST_CONTACT} s (paper's parameters).")  # fmt: skip
-            written += _write_case(staging.path, key, label, impact, sol, s, summary, stride, done)
+            window = None if args.no_figures else cases.FIGURE_WINDOW
+            written += _write_case(staging.path, key, label, impact, sol, s, summary, stride, done, window)
             staging.finished(label)
         if not args.no_figures:
             written += _plot(staging.path, done)
@@ -203,6 +220,14 @@ def _xu2014(args, stopper) -> int:
     except KeyboardInterrupt:  # raised, not signalled: `_StopOnSignals` handles SIGINT
         print(f"jaxbearing xu2014: {staging.stop('stopped (KeyboardInterrupt)')}", file=sys.stderr)
         return 130
+    except Exception as err:  # the staging folder says so; an error of memory ends here
+        memory = _out_of_memory(err)
+        why = f"failed: {'out of memory' if memory else type(err).__name__} ({_first_line(err)})"
+        print(f"jaxbearing xu2014: {staging.stop(why)}", file=sys.stderr)
+        if memory:
+            print("jaxbearing xu2014: pass fewer --samples or a shorter --t1", file=sys.stderr)
+            return 1
+        raise
     _print_end(summary, out, [out / path.name for path in written])
     return 0
 
@@ -212,7 +237,7 @@ INCOMPLETE = "INCOMPLETE"  # the marker file of a staging folder
 
 def _result_files() -> set[str]:
     """What a complete run writes into --out."""
-    from .report._figures import FIGURE_FILES
+    from ..report._figures import FIGURE_FILES
 
     return {*(f"{key}.csv" for key, _, _ in CASES), "summary.json", *FIGURE_FILES}
 
@@ -266,7 +291,7 @@ class _Staging:
 
     def _new_folder(self, kind: str) -> Path:
         """A new folder ``<out>.<kind>-<pid>-<random>`` beside --out (`_files.new_folder`)."""
-        from . import _files
+        from .. import _files
 
         return _files.new_folder(self.out.parent, f"{self.out.name}.{kind}-{os.getpid()}-")
 
@@ -276,7 +301,7 @@ class _Staging:
             self._mark("The run is going on (or was killed).")
 
     def _mark(self, status: str) -> None:
-        from . import _files
+        from .. import _files
 
         done = ", ".join(self.cases) or "no case"
         _files.write_text(self.path / INCOMPLETE, (
@@ -327,13 +352,20 @@ class _StopOnSignals:
     nothing and the signal's number, which CPython writes to its wakeup descriptor as the
     signal arrives (`signal.set_wakeup_fd`), wakes a thread that stops the process
     (`os._exit`). Nothing is installed outside the main thread, where Python takes no
-    signals."""
+    signals.
+
+    Where the command ends the process (``ends_process``), SIGINT is ignored once the block is
+    left: the exit status is decided, and a Ctrl-C while the interpreter shuts down would be
+    raised inside JAX's exit handlers (which free the backends and compiled programs) as a
+    KeyboardInterrupt traceback, or end the process with -2 after them. SIGTERM keeps its
+    default (the process ends, without a traceback)."""
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-    def __init__(self):
+    def __init__(self, ends_process: bool = False):
         self.staging: _Staging | None = None  # set once the run has one
         self.installed = threading.current_thread() is threading.main_thread()
+        self.ends_process = ends_process
 
     def __enter__(self):
         if not self.installed:
@@ -349,7 +381,8 @@ class _StopOnSignals:
         if not self.installed:
             return
         for number, handler in zip(self.SIGNALS, self.previous):  # first: no signal is lost
-            signal.signal(number, handler)
+            ending = self.ends_process and number == signal.SIGINT
+            signal.signal(number, signal.SIG_IGN if ending else handler)
         signal.set_wakeup_fd(self.previous_fd)
         self.writer.close()  # ends the thread's wait
 
@@ -374,7 +407,7 @@ class _StopOnSignals:
 
 
 def _plot(out, done) -> list[Path]:
-    from . import cases, report
+    from .. import cases, report
 
     return report.plot_figures(out, done, cases.FIGURE_WINDOW)
 
@@ -392,9 +425,87 @@ def _output_times(args):
     """(output times [s], CSV stride in samples) of the command's options."""
     import numpy as np
 
-    samples = args.samples if args.samples is not None else max(2, round(args.t1 / DEFAULT_DT) + 1)
+    samples = _sample_count(args)
     dt = args.t1 / (samples - 1)
     return np.linspace(0.0, args.t1, samples), max(1, round(args.csv_dt / dt))
+
+
+def _sample_count(args) -> int:
+    """Output times of the command's options (`_output_times`), without making them."""
+    return args.samples if args.samples is not None else max(2, round(args.t1 / DEFAULT_DT) + 1)
+
+
+def _floats_per_output(model) -> int:
+    """Floats a solution of ``model`` holds per output time: t, q, qd, qdd, each bearing's ball
+    loads, force (2) and cage angle, each contact's force, penetration and approach speed, and
+    the drift (`solution.Samples`); its series (`report.series`) copy them."""
+    bearings = sum(joint.bearing.n_balls + 3 for joint in model.bearings)
+    return 2 + 3 * model.n_coordinates + bearings + 3 * len(model.contacts)
+
+
+def _memory_problem(args, model) -> str | None:
+    """Why the run does not fit in the memory available, or None: the output samples, in up to
+    `OUTPUT_COPIES` copies (the solve's, its NumPy series and the first case's kept for the
+    figures), and the solve's scan of ``default_max_segments`` slots. Checked before anything
+    is solved, where the sizes are known (docs/xu2014.md, 'Memory')."""
+    from .. import default_max_segments
+
+    available = _available_memory()
+    if available is None:
+        return None
+    samples = _sample_count(args)
+    per_output = 8 * OUTPUT_COPIES * _floats_per_output(model)
+    segments = SEGMENT_BYTES * default_max_segments(model, 0.0, args.t1)
+    need = samples * per_output + segments
+    if need <= available:
+        return None
+    fitting = (available - segments) // per_output
+    fix = (f"pass --samples {fitting} or fewer, or a shorter --t1" if fitting >= 2
+           else "use a shorter --t1")  # fmt: skip
+    return (f"--t1 {args.t1:g} s with {samples} output times needs about {_size(need)} of memory "
+            f"({per_output} B an output time, {_size(segments)} for the solve's segments), more "
+            f"than the {_size(available)} available: {fix}")  # fmt: skip
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory this process may still take [B]: the host's (Linux: MemAvailable), and
+    the accelerator's free memory where JAX reports a limit, whichever is less; None where
+    neither is known."""
+    import jax
+
+    known = []
+    try:
+        with open("/proc/meminfo") as f:
+            known += [int(line.split()[1]) * 1024 for line in f if line.startswith("MemAvailable:")]
+    except OSError:
+        with contextlib.suppress(ValueError, OSError, AttributeError):
+            known.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    device = jax.devices()[0]
+    stats = device.memory_stats() if device.platform != "cpu" else None
+    if stats and "bytes_limit" in stats:
+        known.append(stats["bytes_limit"] - stats.get("bytes_in_use", 0))
+    return min(known) if known else None
+
+
+def _size(n: int) -> str:
+    """A byte count in words (decimal units)."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n / 1e3:.3g} kB"
+
+
+def _out_of_memory(err: BaseException) -> bool:
+    """Whether ``err`` says that memory ran out (Python's, or XLA's RESOURCE_EXHAUSTED)."""
+    import jax
+
+    return isinstance(err, MemoryError) or (
+        isinstance(err, jax.errors.JaxRuntimeError) and "RESOURCE_EXHAUSTED" in str(err)
+    )
+
+
+def _first_line(err: BaseException) -> str:
+    return (str(err).strip().splitlines() or [""])[0][:300]
 
 
 def _window_start(model) -> float:
@@ -408,7 +519,7 @@ def _warn(message):
 
 def _summary(args, ts, stride, source, overrides, models) -> dict:
     """summary.json before any case has run: the settings and every parameter."""
-    from . import cases, provenance
+    from .. import cases, provenance
 
     dt = args.t1 / (ts.size - 1)
     return {
@@ -469,7 +580,7 @@ def _run_case(args, model, ts, label):
     the solve fails."""
     import jax
 
-    from . import SimulationError, default_controller, report, simulate
+    from .. import SimulationError, default_controller, report, simulate
 
     def solve():
         controller = default_controller(args.rtol, args.atol)
@@ -499,11 +610,15 @@ def _run_case(args, model, ts, label):
     return sol, s
 
 
-def _write_case(out, key, label, impact, sol, s, summary, stride, done) -> list[Path]:
-    """Write one case's CSV and the summary so far; print it; add its series to ``done``."""
-    from . import cases, report
+def _write_case(out, key, label, impact, sol, s, summary, stride, done, window) -> list[Path]:
+    """Write one case's CSV and the summary so far; print it; add its series to ``done``. With
+    the figures' ``window`` [s] (None: no figures), the summary holds the peaks they show
+    (`report.figure_peaks`) and says where the run's lie against them."""
+    from .. import cases, report
 
     data = report.series(sol)
+    if window is not None:
+        s.update(report.figure_peaks(data, window))
     summary["cases"][key] = s
     summary["csv_columns"] = report.csv_columns(data)
     written = [report.write_csv(out / f"{key}.csv", data, stride)]
@@ -517,7 +632,7 @@ def _write_case(out, key, label, impact, sol, s, summary, stride, done) -> list[
 
 
 def _print_end(summary, out, written):
-    from . import report
+    from .. import report
 
     if summary["table5"] is not None:
         print(report.format_table5(summary["table5"]))
@@ -527,10 +642,9 @@ def _print_end(summary, out, written):
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``jaxbearing`` command; returns the exit status."""
+    """Entry point of the ``jaxbearing`` command; returns the exit status. ``argv`` None: the
+    process's own command line, which the command ends, so that SIGINT is ignored from its end
+    on (`_StopOnSignals`)."""
     args = build_parser().parse_args(argv)
+    args.ends_process = argv is None
     return args.func(args)
-
-
-if __name__ == "__main__":
-    sys.exit(main())
