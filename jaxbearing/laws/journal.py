@@ -74,6 +74,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from .. import _checks
+from . import rules
 
 
 def _contact_stiffness(xp, radius, clearance, e_j, nu_j, e_i, nu_i):
@@ -107,8 +108,8 @@ def contact_stiffness(
         lambda xp, r, c, ej, nj, ei, ni: [
             _checks.positive(xp, "radius", r, "m"), _checks.positive(xp, "clearance", c, "m")
         ]
-        + _checks.material(xp, ej, nj)
-        + _checks.material(xp, ei, ni, "youngs_hole", "poisson_hole"),
+        + rules.material(xp, ej, nj)
+        + rules.material(xp, ei, ni, "youngs_hole", "poisson_hole"),
         *values,
     )
     return _checks.evaluate(_contact_stiffness, *values)
