@@ -303,8 +303,9 @@ def _with_adjoint(adjoint, *args):
         if kind == "checkpointed" and str(err) != NESTED_DERIVATIVE:
             err.add_note(
                 "simulate differentiates in reverse mode (jax.grad, jax.jacrev) unless told: for "
-                "forward mode (jax.jacfwd, jax.jvp) pass adjoint=diffrax.ForwardMode(), or use "
-                "jaxbearing.sensitivity."
+                "forward mode (jax.jacfwd, jax.jvp) pass adjoint=diffrax.ForwardMode(), call it "
+                "within jaxbearing.default_adjoint(diffrax.ForwardMode()), or use "
+                "jaxbearing.sensitivity (jaxbearing.tune: mode='forward')."
             )
         raise
 
