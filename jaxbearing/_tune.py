@@ -52,7 +52,7 @@ from .simulation import default_adjoint, default_controller, simulate
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
 LOSS_JUMP = 10.0  # `tune` warns when the loss rises above this factor of the previous one
-FORWARD_MAX_PARAMETERS = 8  # "auto" differentiates in forward mode up to this many parameters
+FORWARD_MAX_PARAMETERS = 4  # "auto" differentiates in forward mode up to this many parameters
 MODES = ("auto", "forward", "reverse")
 
 
