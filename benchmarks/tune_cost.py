@@ -20,10 +20,11 @@ compiles everything; later calls in the same worker are warm. Cases:
 Groups (``--only``): ``tune`` (12 `jb.tune` steps on the roller crank against 12 simulations
 plus one compile), ``reverse`` (warm `jax.grad` against a warm forward run, both cases, and
 each process's peak resident memory), ``first`` (first calls of the paper's case against the
-reference's), ``threshold`` (warm forward mode with 1 and 4 parameters against reverse mode on
-the paper's case: what ``mode="auto"``'s threshold rests on). Each target is printed with its
-figure and ratio; the figures go to the JSON under ``"tune_cost"`` (other keys kept), with the
-machine's load average and calibrator (wall of ``sum(range(10**8))``).
+reference's), ``threshold`` (forward mode with 1 and 4 parameters against reverse mode, warm and
+first calls, both cases: what ``mode="auto"``'s threshold rests on). Each target is printed with its
+figure and ratio; the figures go to the JSON under ``"tune_cost"``, one entry a group (each
+run's entry under every group it ran; other groups and keys kept), with the machine's load
+average and calibrator (wall of ``sum(range(10**8))``).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 TUNE_STEPS = 12
-TARGETS = {  # (what, figure key, denominator key, bound)
+TARGETS = {  # the bound on each ratio
     "tune_12_steps": 3.0,  # 12 tune steps / (12 simulations + one compile), roller crank
     "reverse_warm": 5.0,  # warm jax.grad / warm forward run (stretch 3)
     "first_simulate": 5.0,  # first simulate / reference's first call
@@ -61,15 +62,17 @@ case, job, runs = sys.argv[1], sys.argv[2], int(sys.argv[3])
 if case == "paper":
     base = jb.cases.xu2014(impact=True, ball_force="smooth")
     name, kw = "bearing.clearance", {}
-    metric = jb.metrics.rms_bearing_force
+    metric, others = jb.metrics.rms_bearing_force, "impact.restitution"
 elif case == "roller":
     roller = jb.RollerBearing.from_catalogue("NU205-estimated", ball_force="smooth")
     m = jb.cases.xu2014(impact=False, bearing=roller)
-    ground = BearingJoint(GROUND, (0.0, 0.0), 0, (-0.025, 0.0), jb.cases.skf98205(ball_force="smooth"))
+    ball = jb.cases.skf98205(ball_force="smooth")
+    ground = BearingJoint(GROUND, (0.0, 0.0), 0, (-0.025, 0.0), ball)
     base = jb.Mechanism(m.bodies, m.joints[1:], m.q0, m.qd0, forces=m.forces + (ground,),
                         body_names=m.body_names, window_start=m.window_start)
     name, kw = "bearings.0.bearing.clearance", {"stepsize_controller": jb.derivative_controller()}
     metric = jb.metrics.smooth_peak_ball_load.replace(bearing=0)  # the roller
+    others = "bearings.1.bearing.clearance"  # the ball bearing's
 ts = jnp.linspace(0.0, 0.2, 2001)
 
 
@@ -93,13 +96,14 @@ if job == "reference":
     import diffrax
 
     def lorenz(t, y, rho):
-        return jnp.stack([10.0 * (y[1] - y[0]), y[0] * (rho - y[2]) - y[1], y[0] * y[1] - 8.0 / 3.0 * y[2]])
+        return jnp.stack([10.0 * (y[1] - y[0]), y[0] * (rho - y[2]) - y[1],
+                          y[0] * y[1] - 8.0 / 3.0 * y[2]])
 
     @jax.jit
     def solve(rho):
+        controller = diffrax.PIDController(rtol=1e-8, atol=1e-8)
         return diffrax.diffeqsolve(diffrax.ODETerm(lorenz), diffrax.Tsit5(), 0.0, 1.0, 0.01,
-                                   jnp.ones(3), args=rho,
-                                   stepsize_controller=diffrax.PIDController(rtol=1e-8, atol=1e-8)).ys[-1]
+                                   jnp.ones(3), args=rho, stepsize_controller=controller).ys[-1]
     out["first"], _ = timed(solve, jnp.asarray(28.0))
 elif job == "simulate":
     walls = []
@@ -111,16 +115,19 @@ elif job in ("grad", "forward1", "forward4"):
     if job == "grad":
         fn, x = jax.jit(jax.grad(lambda c: loss(at(c)))), jnp.asarray(c0)
     else:  # jb.sensitivity's forward mode with 1 or 4 parameters
-        names = [name] + (["bearing.stiffness", "bearing.damping", "impact.restitution"] if job == "forward4" else [])
+        more = [name.replace("clearance", p) for p in ("stiffness", "damping")] + [others]
+        names = [name] + (more if job == "forward4" else [])
+        controller = kw.get("stepsize_controller", jb.default_controller())
         fn = lambda: jb.sensitivity(base, metric, names, 0.2, ts, mode="forward",
-                                      stepsize_controller=kw.get("stepsize_controller", jb.default_controller()))
+                                    stepsize_controller=controller)
         x = None
     walls = [timed(fn, *(() if x is None else (x,)))[0] for _ in range(runs)]
     out.update(first=walls[0], warm=min(walls[1:]), walls=walls)
 elif job == "tune":
     stamps, t = [], time.perf_counter()
     result = jb.tune(loss, base, [name], optax.adam(0.05), runs,
-                     bounds={name: (5e-6, 80e-6)}, callback=lambda *a: stamps.append(time.perf_counter()))
+                     bounds={name: (5e-6, 80e-6)},
+                     callback=lambda *a: stamps.append(time.perf_counter()))
     total = time.perf_counter() - t
     out.update(total=total, first=stamps[0] - t, evaluations=len(stamps),
                losses=[float(v) for v in result.history_loss])
@@ -143,7 +150,8 @@ def work(case: str, job: str, runs: int = 1) -> dict:
     if not out["file"].startswith(str(ROOT)):
         raise RuntimeError(f"the worker imported {out['file']}, not this tree")
     out["process_s"] = time.perf_counter() - start
-    print(f"  {case} {job}: {json.dumps({k: v for k, v in out.items() if k != 'file'})}", flush=True)
+    shown = {k: v for k, v in out.items() if k != "file"}
+    print(f"  {case} {job}: {json.dumps(shown)}", flush=True)
     return out
 
 
@@ -165,9 +173,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     t = time.perf_counter()
     sum(range(10**8))
-    results = {"date": time.strftime("%Y-%m-%d"), "machine": platform.processor() or platform.machine(),
+    results = {"date": time.strftime("%Y-%m-%d"),
+               "machine": platform.processor() or platform.machine(),
                "cpus": os.cpu_count(), "load_average": os.getloadavg(),
-               "calibrator_s": time.perf_counter() - t, "targets": {}, "jobs": {}}
+               "calibrator_s": time.perf_counter() - t, "targets": {}, "jobs": {}, "threshold": {}}
     jobs = results["jobs"]
     if "tune" in args.only:
         jobs["roller simulate"] = sim = work("roller", "simulate", TUNE_STEPS)
@@ -191,24 +200,31 @@ def main(argv=None):
         tune = jobs["paper tune"] = work("paper", "tune", 1)
         target(results, "first_simulate", sim["first"], ref["first"],
                "paper: first simulate against the reference's first call")
-        target(results, "first_grad", grad["first"], sim["first"], "paper: first jax.grad against its first simulate")
+        target(results, "first_grad", grad["first"], sim["first"],
+               "paper: first jax.grad against its first simulate")
         target(results, "first_tune_step", tune["first"], sim["first"],
                "paper: first jb.tune step (auto: forward mode) against its first simulate")
-    if "threshold" in args.only:
+    for case in ("paper", "roller") if "threshold" in args.only else ():
         for job in ("forward1", "forward4"):
-            jobs[f"paper {job}"] = work("paper", job, args.runs + 1)
-        grad = jobs.get("paper grad") or work("paper", "grad", args.runs + 1)
-        jobs["paper grad"] = grad
-        one, four = jobs["paper forward1"]["warm"], jobs["paper forward4"]["warm"]
-        per = (four - one) / 3
-        print(f"paper, warm: forward mode 1 parameter {one:.3f} s, 4 parameters {four:.3f} s "
-              f"({per:.3f} s a tangent), reverse {grad['warm']:.3f} s: forward is the cheaper up to "
-              f"{1 + (grad['warm'] - one) / per:.1f} parameters", flush=True)
+            jobs[f"{case} {job}"] = work(case, job, args.runs + 1)
+        grad = jobs.get(f"{case} grad") or work(case, "grad", args.runs + 1)
+        jobs[f"{case} grad"] = grad
+        one, four = jobs[f"{case} forward1"], jobs[f"{case} forward4"]
+        per, per_first = (four["warm"] - one["warm"]) / 3, (four["first"] - one["first"]) / 3
+        runs = 1 + (grad["warm"] - one["warm"]) / per
+        firsts = 1 + (grad["first"] - one["first"]) / per_first
+        results["threshold"][case] = dict(tangent_s=per, tangent_first_s=per_first,
+                                          warm_crossover=runs, first_crossover=firsts)
+        print(f"{case}: forward mode with 1 / 4 parameters warm {one['warm']:.3f} / "
+              f"{four['warm']:.3f} s, first {one['first']:.1f} / {four['first']:.1f} s; "
+              f"reverse warm "
+              f"{grad['warm']:.3f} s, first {grad['first']:.1f} s: forward is the cheaper up to "
+              f"{runs:.1f} parameters warm, {firsts:.1f} in its first call", flush=True)
     results["wall_s"] = time.perf_counter() - t
     stored = json.loads(args.json.read_text()) if args.json.exists() else {}
-    stored["tune_cost"] = results
+    kept = stored.get("tune_cost", {})
+    stored["tune_cost"] = {**kept, **{group: results for group in args.only}}
     args.json.write_text(json.dumps(stored, indent=2) + "\n")
-
 
 if __name__ == "__main__":
     main()
