@@ -96,7 +96,7 @@ def test_tune_mechanics_on_an_analytic_loss():
     assert float(model.bearing.clearance) == 4e-5  # the input model is unchanged
 
 
-@pytest.mark.slow  # 30 s: 300 reverse-mode steps; test_tune_returns_the_best_valid_iterate runs tune by default
+@pytest.mark.slow  # 13 s (forward mode, mode="auto"); test_tune_returns_the_best_valid_iterate runs tune by default
 def test_tune_identifies_rotor_damping():
     """A rotor's bearing-force history at known damping; start 30 % off; a few Adam steps move
     the damping towards the truth and reduce the misfit (the full identification is a study)."""
