@@ -96,7 +96,7 @@ def test_tune_mechanics_on_an_analytic_loss():
     assert float(model.bearing.clearance) == 4e-5  # the input model is unchanged
 
 
-@pytest.mark.slow  # 13 s (forward mode, mode="auto"); test_tune_returns_the_best_valid_iterate runs tune by default
+@pytest.mark.slow  # 13 s (forward mode); test_tune_returns_the_best_valid_iterate runs tune by default
 def test_tune_identifies_rotor_damping():
     """A rotor's bearing-force history at known damping; start 30 % off; a few Adam steps move
     the damping towards the truth and reduce the misfit (the full identification is a study)."""
@@ -242,10 +242,13 @@ def test_auto_mode_takes_forward_mode_for_a_few_parameters_and_reverse_for_many(
     from jaxbearing import _tune
 
     n = jb.FORWARD_MAX_PARAMETERS
-    assert [_tune.derivative_mode("auto", k) for k in (1, n, n + 1)] == ["forward", "forward", "reverse"]
-    assert _tune.derivative_mode("reverse", 1) == "reverse" and _tune.derivative_mode("forward", 50) == "forward"
+    chosen = [_tune.derivative_mode("auto", k) for k in (1, n, n + 1)]
+    assert chosen == ["forward", "forward", "reverse"]
+    assert _tune.derivative_mode("reverse", 1) == "reverse"
+    assert _tune.derivative_mode("forward", 50) == "forward"
     model = jb.cases.xu2014(impact=True)
-    names = [p for p in jb.paths.parameter_paths(model) if jnp.ndim(jb.paths.get(model, p)) == 0][: n + 1]
+    scalars = [p for p in jb.paths.parameter_paths(model) if jnp.ndim(jb.paths.get(model, p)) == 0]
+    names = scalars[: n + 1]
     assert len(names) == n + 1
     seen = []
 
@@ -274,7 +277,8 @@ def test_a_bad_mode_is_refused_naming_the_modes():
         jb.tune(lambda m: m.bearing.clearance, model, ["bearing.clearance"], optax.sgd(0.1), 1,
                 mode="backward")
     with pytest.raises(ValueError, match=allowed):
-        jb.sensitivity(model, metrics.rms_bearing_force, ["bearing.clearance"], 0.02, mode="backward")
+        jb.sensitivity(model, metrics.rms_bearing_force, ["bearing.clearance"], 0.02,
+                       mode="backward")
     with pytest.raises(TypeError, match="default_adjoint takes a diffrax adjoint"):
         with jb.default_adjoint("forward"):
             pass
