@@ -25,6 +25,7 @@ from .params import AbstractBearing, BallBearing, Impact, RollerBearing
 from ._options import SolveOptions
 from .solution import RESULTS, Contacts, DriftWarning, SimulationError, Solution
 from .simulation import (
+    default_adjoint,
     default_controller,
     default_max_onsets,
     default_max_segments,
@@ -34,12 +35,21 @@ from .simulation import (
     simulate_one_loop,
 )
 from ._sweep import sweep
-from ._tune import DERIVATIVE_RTOL, TuneResult, TuneWarning, derivative_controller, sensitivity, tune
+from ._tune import (
+    DERIVATIVE_RTOL,
+    FORWARD_MAX_PARAMETERS,
+    TuneResult,
+    TuneWarning,
+    derivative_controller,
+    sensitivity,
+    tune,
+)
 
 __version__ = "0.1.0"
 
 __all__ = [
     "DERIVATIVE_RTOL",
+    "FORWARD_MAX_PARAMETERS",
     "RESULTS",
     "AbstractBearing",
     "BallBearing",
@@ -55,6 +65,7 @@ __all__ = [
     "Solution",
     "SolveOptions",
     "cases",
+    "default_adjoint",
     "default_controller",
     "default_max_onsets",
     "default_max_segments",

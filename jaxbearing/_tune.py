@@ -3,15 +3,17 @@
 No physics here: a loss is any function ``loss(model) -> scalar`` (it simulates and measures),
 parameters are named by dotted paths (`jaxbearing.paths`).
 
-Which differentiation mode:
+Which differentiation mode (``mode="auto"``, the default of `sensitivity` and `tune`):
 
-- forward mode (`jax.jacfwd` with ``adjoint=diffrax.ForwardMode()`` in `simulate`) costs about one
-  extra forward solve per parameter and works under `jax.vmap` (batches of design points): the
-  right choice for the handful of design parameters of a bearing (clearance, restitution,
-  stiffness, damping). `sensitivity` uses it by default.
+- forward mode (a batch of `jax.jvp`s over the unit vectors, as `jax.jacfwd` takes them, with
+  ``adjoint=diffrax.ForwardMode()`` in `simulate`) costs a forward solve plus a tangent per
+  parameter and works under `jax.vmap`: "auto" takes it for up to `FORWARD_MAX_PARAMETERS`
+  parameters, the handful of a bearing's design (clearance, restitution, stiffness, damping).
+  `tune` runs the loss inside `default_adjoint(diffrax.ForwardMode())`, so a loss that calls
+  `simulate` with its defaults needs no change.
 - reverse mode (`jax.grad` with the default `RecursiveCheckpointAdjoint`) costs a fixed multiple
-  of a forward run whatever the number of parameters (docs/performance.md gives the measured costs); use
-  it for many parameters. `tune` uses it, so a loss can call `simulate` with its defaults.
+  of a forward run whatever the number of parameters: "auto" takes it for more. docs/performance.md
+  gives both costs; ``mode="forward"`` or ``"reverse"`` overrides the choice.
 
 Both ball forces give derivatives of the computed solution that are exact to the solver's
 tolerance: the paper force's switches are located as events, whose implicit time derivatives
@@ -45,11 +47,13 @@ import optax
 from . import _checks, paths as _paths
 from .metrics import AbstractMetric, as_metric, solve_options
 from .solution import RESULTS, SimulationError
-from .simulation import default_controller, simulate
+from .simulation import default_adjoint, default_controller, simulate
 
 DERIVATIVE_RTOL = 1e-11  # derivatives of the standard metrics within 2 % (docs/gradients.md)
 DERIVATIVE_ATOL = DERIVATIVE_RTOL / 100  # [m, rad, m/s], in simulate's default ratio to rtol
 LOSS_JUMP = 10.0  # `tune` warns when the loss rises above this factor of the previous one
+FORWARD_MAX_PARAMETERS = 4  # "auto" differentiates in forward mode up to this many parameters
+MODES = ("auto", "forward", "reverse")
 
 
 def derivative_controller() -> diffrax.PIDController:
@@ -60,6 +64,26 @@ def derivative_controller() -> diffrax.PIDController:
     times the steps of simulate's default. `sensitivity` uses it by default; pass it to
     `simulate` in a `tune` loss."""
     return default_controller(rtol=DERIVATIVE_RTOL, atol=DERIVATIVE_ATOL)
+
+
+def derivative_mode(mode: str, n_parameters: int) -> str:
+    """``"forward"`` or ``"reverse"``: ``mode`` itself, or for ``"auto"`` forward mode up to
+    `FORWARD_MAX_PARAMETERS` parameters and reverse mode beyond; a `ValueError` naming the
+    allowed modes for anything else."""
+    if not isinstance(mode, str) or mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}; got {mode!r}.")
+    if mode != "auto":
+        return mode
+    return "forward" if n_parameters <= FORWARD_MAX_PARAMETERS else "reverse"
+
+
+def _forward(f, x, has_aux=False):
+    """``f(x)`` and its gradient (with ``f``'s aux where ``has_aux``) by forward mode: every
+    tangent through one solve, a batch of `jax.jvp`s over the unit vectors as `jax.jacfwd`
+    takes them; the value and the aux do not depend on the tangent. ``x``: (n,)."""
+    tangent = lambda v: jax.jvp(f, (x,), (v,), has_aux=has_aux)  # noqa: E731
+    axes = (None, 0, None) if has_aux else (None, 0)
+    return jax.vmap(tangent, out_axes=axes)(jnp.eye(x.shape[0], dtype=x.dtype))
 
 
 def _values(model, names: Sequence[str], purpose: str) -> jax.Array:
@@ -83,7 +107,7 @@ def sensitivity(
     t1: float,
     ts=None,
     *,
-    mode: str = "forward",
+    mode: str = "auto",
     **simulate_kwargs,
 ):
     """d metric / d parameter for each named parameter, through the whole simulation.
@@ -101,8 +125,9 @@ def sensitivity(
             simulates at `derivative_controller()`, not at simulate's default: the derivative
             of the discrete solve converges more slowly than the solution (docs/gradients.md).
             A ``stepsize_controller`` you pass wins.
-        mode: ``"forward"`` (one `jax.jvp` per parameter, `diffrax.ForwardMode`) or
-            ``"reverse"`` (`jax.grad`).
+        mode: ``"auto"`` (forward mode up to `FORWARD_MAX_PARAMETERS` names, else reverse),
+            ``"forward"`` (a batch of `jax.jvp`s, `diffrax.ForwardMode`) or ``"reverse"``
+            (`jax.grad`).
 
     Returns:
         ``(value, {name: derivative})`` in the metric's units per parameter unit.
@@ -112,8 +137,6 @@ def sensitivity(
     finite. The compiled derivative carries no host callback, so JAX's persistent compilation
     cache keeps it for the next process.
     """
-    if mode not in ("forward", "reverse"):
-        raise ValueError(f"mode must be 'forward' or 'reverse'; got {mode!r}.")
     if "throw" in simulate_kwargs:
         raise TypeError("sensitivity takes no throw: a failure raises after the compiled call.")
     if simulate_kwargs.get("stepsize_controller") is None:
@@ -123,6 +146,7 @@ def sensitivity(
     options = solve_options(simulate_kwargs.get("options"), (metric,), t1, model.window_start)
     simulate_kwargs = {**simulate_kwargs, "options": options}
     x = _values(model, names, "to be differentiated")
+    mode = derivative_mode(mode, x.shape[0])
     value, grad, failed = _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs)
     finite = np.all(np.isfinite(np.asarray(value))) and np.all(np.isfinite(np.asarray(grad)))
     if bool(failed) or not finite:
@@ -157,11 +181,7 @@ def _value_and_grad(model, x, metric, names, t1, ts, mode, simulate_kwargs):
         (value, failed), grad = jax.value_and_grad(f, has_aux=True)(x)
         return value, grad, failed
 
-    # every tangent through one solve: a batch of jvps over the unit vectors, as `jax.jacfwd`
-    # takes them; the value and the failure do not depend on the tangent (docs/performance.md)
-    tangent = lambda v: jax.jvp(f, (x,), (v,), has_aux=True)  # noqa: E731 (value, derivative, failed)
-    batch = jax.vmap(tangent, out_axes=(None, 0, None))
-    return batch(jnp.eye(x.shape[0], dtype=x.dtype))
+    return _forward(f, x, has_aux=True)  # (value, derivative, failed)
 
 
 class TuneWarning(UserWarning):
@@ -214,6 +234,7 @@ def tune(
     bounds: Mapping[str, tuple[float, float]] | None = None,
     scale: Mapping[str, float] | None = None,
     callback: Callable | None = None,
+    mode: str = "auto",
 ) -> TuneResult:
     """Minimise ``loss(model)`` over the named parameters with an optax optimiser.
 
@@ -248,11 +269,17 @@ def tune(
         scale: {name: scale} in parameter units.
         callback: called as ``callback(step, loss, {name: value})`` after each evaluation (the
             loss NaN for an invalid iterate).
+        mode: how the gradient is taken: ``"auto"`` (forward mode up to
+            `FORWARD_MAX_PARAMETERS` names, else reverse), ``"forward"`` (a batch of `jax.jvp`s;
+            the loss runs inside ``default_adjoint(diffrax.ForwardMode())``, so its `simulate`
+            calls without an ``adjoint`` differentiate forward) or ``"reverse"`` (`jax.grad`).
+            A loss that passes its own ``adjoint`` to `simulate` needs the matching mode.
     """
     names = list(names) if not isinstance(names, str) else names
     if steps < 1:
         raise ValueError(f"steps must be at least 1; got {steps}.")
     x0 = _values(model, names, "to be tuned")
+    mode = derivative_mode(mode, x0.shape[0])
     for what, given in (("scale", scale), ("bounds", bounds)):
         unknown = sorted(set(given or {}) - set(names))
         if unknown:
@@ -269,9 +296,15 @@ def tune(
         if not float(lo[i]) <= float(x0[i]) <= float(hi[i]):
             raise ValueError(f"Initial {n} = {float(x0[i]):.6g} lies outside its bounds.")
 
+    def scaled_loss(x):
+        return loss(_set(model, names, x * scales))
+
     @eqx.filter_jit
     def value_and_grad(x):
-        return jax.value_and_grad(lambda x_: loss(_set(model, names, x_ * scales)))(x)
+        if mode == "reverse":
+            return jax.value_and_grad(scaled_loss)(x)
+        with default_adjoint(diffrax.ForwardMode()):  # while the loss is traced
+            return _forward(scaled_loss, x)
 
     @eqx.filter_jit
     def update(x, grad, state):

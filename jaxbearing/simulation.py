@@ -19,6 +19,8 @@ and makes the `Solution` of them.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import functools
 import math
 import warnings
@@ -75,6 +77,30 @@ ITERATION_RATE = 500_000.0  # [1/s] iterations per simulated second the default 
 ONSET_RATE = 320.0  # [1/s] contact onsets per simulated second the default max_onsets allows
 
 
+_ADJOINT = contextvars.ContextVar("jaxbearing_default_adjoint", default=None)
+
+
+@contextlib.contextmanager
+def default_adjoint(adjoint: diffrax.AbstractAdjoint | None):
+    """Within this block, `simulate` called without an ``adjoint`` (or with None) uses
+    ``adjoint``: e.g. ``diffrax.ForwardMode()``, so that a function that calls `simulate` with
+    its defaults can be differentiated by `jax.jvp` or `jax.jacfwd` unchanged (`tune` does this
+    in forward mode). An ``adjoint`` passed to `simulate` wins. None restores the default
+    (reverse mode). The setting is per thread and per asyncio task (a `contextvars` variable)
+    and applies where `simulate` is traced: a function compiled outside the block keeps the
+    adjoint it was compiled with."""
+    if adjoint is not None and not isinstance(adjoint, diffrax.AbstractAdjoint):
+        raise TypeError(
+            f"default_adjoint takes a diffrax adjoint (e.g. diffrax.ForwardMode()) or None; got "
+            f"{type(adjoint).__name__}."
+        )
+    token = _ADJOINT.set(adjoint)
+    try:
+        yield adjoint
+    finally:
+        _ADJOINT.reset(token)
+
+
 def default_solver() -> diffrax.AbstractSolver:
     """Tsit5: on the paper's case it is the fastest at equal accuracy (docs/performance.md)."""
     return diffrax.Tsit5()
@@ -129,8 +155,9 @@ def simulate(
             ``max_steps``: other values compile nothing. ``diffrax.ConstantStepSize()`` takes
             its step from ``options.dt0``; ``diffrax.StepTo`` is refused (its grid cannot
             survive the restarts at events).
-        adjoint: how the solve's loops are differentiated, as in diffrax. The default (None)
-            is reverse mode, for `jax.grad` and `jax.jacrev` (as
+        adjoint: how the solve's loops are differentiated, as in diffrax. None: the adjoint
+            of the enclosing `default_adjoint` block, else reverse mode, for `jax.grad` and
+            `jax.jacrev` (as
             `diffrax.RecursiveCheckpointAdjoint`, storing every step of a segment:
             docs/gradients.md says why). For `jax.jacfwd` and `jax.jvp` pass
             ``diffrax.ForwardMode()`` (the cheaper for a few parameters; `jaxbearing.sensitivity`
@@ -153,7 +180,7 @@ def simulate(
     if progress is not None and not isinstance(progress, str):
         raise ValueError(f"progress must be a label (str) or None; got {progress!r}.")
     sol, broken = _with_adjoint(
-        adjoint,
+        _ADJOINT.get() if adjoint is None else adjoint,
         model,
         t0,
         t1,
@@ -276,8 +303,9 @@ def _with_adjoint(adjoint, *args):
         if kind == "checkpointed" and str(err) != NESTED_DERIVATIVE:
             err.add_note(
                 "simulate differentiates in reverse mode (jax.grad, jax.jacrev) unless told: for "
-                "forward mode (jax.jacfwd, jax.jvp) pass adjoint=diffrax.ForwardMode(), or use "
-                "jaxbearing.sensitivity."
+                "forward mode (jax.jacfwd, jax.jvp) pass adjoint=diffrax.ForwardMode(), call it "
+                "within jaxbearing.default_adjoint(diffrax.ForwardMode()), or use "
+                "jaxbearing.sensitivity (jaxbearing.tune: mode='forward')."
             )
         raise
 

@@ -59,7 +59,7 @@ def test_dense_map_with_the_one_loop_solve(tmp_path):
     assert "peak ball load at the paper's point, rtol 1e-8 and 1e-10" in stdout
 
 
-@pytest.mark.slow  # ~150 s: two reverse-mode compilations of the paper's case
+@pytest.mark.slow  # ~80 s: two forward-mode compilations of the paper's case (tune's auto)
 def test_tune_study_outputs(tmp_path):
     run(TUNE, "--quick", "--out", str(tmp_path))
     summary = json.loads((tmp_path / "summary.json").read_text())
