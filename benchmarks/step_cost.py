@@ -1,4 +1,4 @@
-"""What recording every bearing and every contact costs a solver step (issue 63's targets).
+"""What a solver step costs against an earlier commit (issue 72's targets; issue 63's before).
 
     python benchmarks/step_cost.py [--against REV] [--tree REV] [--runs 10] [--json benchmarks/results.json]
 
@@ -31,9 +31,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_RATIO = 1.10  # wall per step against the parent commit's (issue 63)
+PAPER_RATIO = 1.05  # wall per step against the commit before the element protocol (issue 72)
 TWO_BEARING_RATIO = 1.6  # two-bearing crank per step against the one-bearing crank (issue 63)
-DEFAULT_AGAINST = "87ba15a"  # the commit before every bearing and contact was recorded
+DEFAULT_AGAINST = "7936899"  # the last commit before the element protocol (issue 72)
 
 WORKER = r"""
 import json, sys, time
