@@ -14,7 +14,7 @@ SWEEP = ROOT / "studies" / "clearance_sweep.py"
 # life_clearance: ~3 min quick (a tight-tolerance derivative check and a tuning compile);
 # xu2014: 36 s, the same command line that tests/test_cli.py runs end to end;
 # roller_comparison: four compiles of the paper's case (ball and roller, with and without impact);
-# clearance_life: ~6 min quick (a sweep and a reverse-mode tuning compile for each of two bearings);
+# clearance_life: a sweep and a tuning compile (forward mode: tune's auto) for each of two bearings;
 # joint_comparison: five compiles of the paper's crank (each joint at its crank pin)
 SLOW_STUDIES = {"clearance_life.py", "joint_comparison.py", "life_clearance.py", "roller_comparison.py", "xu2014.py"}
 OTHER_STUDIES = [

@@ -96,7 +96,8 @@ def test_tune_mechanics_on_an_analytic_loss():
     assert float(model.bearing.clearance) == 4e-5  # the input model is unchanged
 
 
-@pytest.mark.slow  # 13 s (forward mode); test_tune_returns_the_best_valid_iterate runs tune by default
+@pytest.mark.slow  # 13 s (forward mode); test_tune_returns_the_best_valid_iterate runs tune by default,
+# in reverse mode
 def test_tune_identifies_rotor_damping():
     """A rotor's bearing-force history at known damping; start 30 % off; a few Adam steps move
     the damping towards the truth and reduce the misfit (the full identification is a study)."""
@@ -201,7 +202,8 @@ def test_tune_stops_at_a_non_finite_loss():
 def test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance():
     """An unbounded tune with a huge step: Adam's first step moves the clearance by 1000 of its
     scale (20 mm, beyond the model's rules either way); the solve refuses it, tune stops, warns
-    and returns the starting point, the only valid iterate."""
+    and returns the starting point, the only valid iterate. In reverse mode: the default set's
+    one `jax.grad` through a solve (auto would take forward mode for one parameter)."""
     model = rotor_model()
 
     def loss(m):
@@ -209,7 +211,7 @@ def test_tune_returns_the_best_valid_iterate_past_an_invalid_clearance():
 
     with pytest.warns(jb.TuneWarning, match=r"step 1 .* is not valid: its evaluation failed "
                       r"\(bearing\.clearance must .*\)\. tune stopped there"):
-        result = jb.tune(loss, model, ["bearing.clearance"], optax.adam(1000.0), 3)
+        result = jb.tune(loss, model, ["bearing.clearance"], optax.adam(1000.0), 3, mode="reverse")
     assert result.invalid_steps == (1,)
     assert abs(result.history_values["bearing.clearance"][1]) > 1e-2
     assert result.values["bearing.clearance"] == 20e-6
