@@ -88,6 +88,22 @@ def pytest_collection_modifyitems(items):
     items.sort(key=lambda item: (not _test(item).startswith(LONGEST), item.nodeid not in grouped))
 
 
+@pytest.hookimpl(trylast=True)  # after pytest-xdist's worker has named the groups
+def pytest_collection_finish(session):
+    """pytest-xdist's worker sends a test's group to the scheduler as a suffix of its node id;
+    pytest 9.2 keeps node ids apart from the field it writes (pytest-xdist#1386), and the groups
+    are then dropped without a word: every group's compiles happen on both workers, a third
+    more time (pyproject.toml keeps pytest below 9.2)."""
+    if not getattr(session.config.option, "loadgroup", False):
+        return  # not an xdist worker under --dist loadgroup
+    lost = [item for item in session.items if _group(item) and "@" not in item.nodeid]
+    if lost:
+        session.config.issue_config_time_warning(pytest.PytestWarning(
+            f"pytest-xdist's groups have no effect with pytest {pytest.__version__} "
+            f"({len(lost)} tests, e.g. {lost[0].nodeid}; pytest-xdist#1386): the tests pass, more "
+            "slowly; use pytest below 9.2 (pyproject.toml)"), stacklevel=2)
+
+
 def pytest_addoption(parser):
     parser.addoption(
         "--start-before", type=float, default=None, metavar="UNIX_TIME",
