@@ -230,6 +230,7 @@ print(json.dumps({**counts, "q": sol.q.tolist(), "cached": cached}))
 """
 
 
+@pytest.mark.slow  # 11 s: two fresh processes (issue 75: the suite's time)
 def test_a_second_process_compiles_nothing_for_the_same_solve(tmp_path, own_cache_env):
     """The compiled solve holds no host callback (checks and failures come back as result
     codes; JAX's cache refuses a program with a callback): the first process writes it to the
@@ -340,6 +341,7 @@ _RESULT_PROGRAMS = {
 _FIRST_RUN_EAGER = {"convert_element_type", "bitwise_or", "not_equal", "equal"}
 
 
+@pytest.mark.slow  # 9 s: a notebook kernel compiling the paper's case (issue 75: the suite's time)
 def test_a_notebook_compiles_one_program_per_result_and_nothing_twice():
     """The path a notebook walks, in a fresh process: building the paper's case compiles nothing
     (its stiffness laws are NumPy), the four-bar its assembly's constraints and Jacobians (one
@@ -397,6 +399,7 @@ print(json.dumps([folder, config.jax_persistent_cache_min_compile_time_secs, sto
 """
 
 
+@pytest.mark.slow  # 13 s: seven fresh processes (issue 75: the suite's time)
 def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cache_env):
     """Importing jaxbearing turns JAX's persistent compilation cache on under XDG_CACHE_HOME,
     keeping every program however quickly it compiled (the four-bar's assembly constraints,

@@ -80,6 +80,12 @@ def test_loose_tolerances_warn_without_relying_on_drift(model):
     with warnings.catch_warnings():
         warnings.simplefilter("error", jb.solution.ToleranceWarning)
         jb.simulate(model, T1, stepsize_controller=jb.default_controller(rtol=1e-6, atol=1e-8))
+
+
+@pytest.mark.slow  # 10 s: a constant step compiles another solve (issue 75: the suite's time)
+def test_a_constant_step_does_not_warn_of_tolerances(model):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", jb.solution.ToleranceWarning)
         jb.simulate(model, T1, stepsize_controller=diffrax.ConstantStepSize(), options=jb.SolveOptions(dt0=1e-6))
 
 
@@ -117,6 +123,7 @@ def _rotor_rms(clearance, adjoint=None):
     return M.rms_bearing_force(jb.simulate(model, 0.002, adjoint=adjoint))
 
 
+@pytest.mark.slow  # 12 s: a forward-mode compile; the same rule inside a solve: test_one_loop.py
 def test_a_derivative_at_an_invalid_parameter_names_the_rule():
     """The rule's value carries no tangent, so that its message can show it (it raised
     TracerArrayConversionError)."""

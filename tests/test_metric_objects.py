@@ -141,7 +141,8 @@ def test_solve_options_declare_records_and_add_edges(rotor):
     assert options.records == ((label, one), (f"{label}#2", other))
 
 
-def test_sensitivity_of_the_life_to_the_clearance():  # 10-40 s: forward mode, 3 solves at rtol 1e-10
+@pytest.mark.slow  # 10-40 s: forward mode, 3 solves at rtol 1e-10 (issue 75: the suite's time)
+def test_sensitivity_of_the_life_to_the_clearance():
     """d L10h / d clearance of `life.metric()` (ISO 281, of the model at the perturbed
     clearance: it enters through the solve) by forward mode against central differences (step
     1e-3 of the clearance) within 2e-3: the derivative of the discrete solve converges more

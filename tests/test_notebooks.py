@@ -14,7 +14,11 @@ from nbclient import NotebookClient
 NOTEBOOKS = sorted((Path(__file__).parent.parent / "notebooks").glob("*.ipynb"))
 
 
-SLOW = {"gradients_and_tuning.ipynb"}  # ~50 s: in the slow set (CI runs it), for the suite's time
+# in the slow set (CI runs it), for the suite's time (issue 75): the tuning notebook (~50 s), the
+# quickstart (~28 s: the paper's case, its figures and an animation, each checked in the default
+# set by tests/test_xu2014.py and tests/test_report_draw.py), the sweeps (~12 s: the sweep of
+# studies/clearance_sweep.py, whose quick run tests/test_studies.py keeps in the default set)
+SLOW = {"gradients_and_tuning.ipynb", "quickstart.ipynb", "sweeps.ipynb"}
 # makes a figure: pyplot's, or a picture, plot or animation of jb.report (an animation shows as
 # HTML)
 FIGURE = re.compile(r"\bplt\.(?:subplots|figure|subplot_mosaic)\(|\bjb\.report\.(?:draw|animate|plot_\w+)\(")
