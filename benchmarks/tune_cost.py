@@ -21,7 +21,9 @@ Groups (``--only``): ``tune`` (12 `jb.tune` steps on the roller crank against 12
 plus one compile), ``reverse`` (warm `jax.grad` against a warm forward run, both cases, and
 each process's peak resident memory), ``first`` (first calls of the paper's case against the
 reference's), ``threshold`` (forward mode with 1 and 4 parameters against reverse mode, warm and
-first calls, both cases: what ``mode="auto"``'s threshold rests on). Each target is printed with its
+first calls, both cases: what ``mode="auto"``'s threshold rests on), ``suite`` (README's test
+command, ``python -m pytest``, with this interpreter and an empty compilation cache, against the
+calibrator; the issue measures it in a fresh virtual environment made from pyproject.toml). Each target is printed with its
 figure and ratio; the figures go to the JSON under ``"tune_cost"``, one entry a group (each
 run's entry under every group it ran; other groups and keys kept), with the machine's load
 average and calibrator (wall of ``sum(range(10**8))``).
@@ -47,6 +49,7 @@ TARGETS = {  # the bound on each ratio
     "first_simulate": 5.0,  # first simulate / reference's first call
     "first_grad": 3.0,  # first jax.grad / first simulate
     "first_tune_step": 3.0,  # first tune step / first simulate
+    "suite": 180.0,  # the test command from an empty cache / the calibrator
 }
 
 WORKER = r"""
@@ -165,9 +168,25 @@ def target(results: dict, key: str, figure: float, base: float, what: str) -> No
           f"{'met' if met else 'not met'})", flush=True)
 
 
+def run_suite() -> dict:
+    """README's test command in this tree with this interpreter, JAX's compilation cache in an
+    empty folder: its wall [s] and pytest's last line."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("JAXBEARING_", "JAX_"))}
+        start = time.perf_counter()
+        done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cwd=ROOT,
+                              env={**env, "XDG_CACHE_HOME": cache}, capture_output=True, text=True)
+        wall = time.perf_counter() - start
+    summary = (done.stdout.strip().splitlines() or [""])[-1].strip("= ")
+    if done.returncode != 0:
+        raise RuntimeError(f"the test command failed ({summary}):\n{done.stdout[-3000:]}")
+    print(f"  suite: {wall:.1f} s, {summary}", flush=True)
+    return {"wall_s": wall, "summary": summary}
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="*", default=["tune", "reverse", "first", "threshold"])
+    parser.add_argument("--only", nargs="*", default=["tune", "reverse", "first", "threshold", "suite"])
     parser.add_argument("--runs", type=int, default=3, help="warm calls after the first")
     parser.add_argument("--json", type=Path, default=ROOT / "benchmarks" / "results.json")
     args = parser.parse_args(argv)
@@ -220,6 +239,10 @@ def main(argv=None):
               f"reverse warm "
               f"{grad['warm']:.3f} s, first {grad['first']:.1f} s: forward is the cheaper up to "
               f"{runs:.1f} parameters warm, {firsts:.1f} in its first call", flush=True)
+    if "suite" in args.only:
+        results["suite"] = suite = run_suite()
+        target(results, "suite", suite["wall_s"], results["calibrator_s"],
+               f"the test command from an empty cache ({suite['summary']}) against the calibrator")
     results["wall_s"] = time.perf_counter() - t
     stored = json.loads(args.json.read_text()) if args.json.exists() else {}
     kept = stored.get("tune_cost", {})
