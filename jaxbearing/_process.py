@@ -32,7 +32,9 @@
    package (a dependency of jaxbearing; without it JAX warns and caches nothing). Only where
    the process has not chosen a cache folder itself (``jax_compilation_cache_dir``,
    ``JAX_COMPILATION_CACHE_DIR``): a cache of the user's keeps the user's settings. Opt-out:
-   ``JAXBEARING_NO_COMPILATION_CACHE=1``; an unbounded cache: ``JAX_COMPILATION_CACHE_MAX_SIZE=-1``.
+   ``JAXBEARING_NO_COMPILATION_CACHE=1``; an unbounded cache: ``JAX_COMPILATION_CACHE_MAX_SIZE=-1``,
+   which writes into a folder of its own (`cache_dir`): an entry written unbounded has no access
+   time, and a bounded cache that meets one fails every later write (jax-ml/jax#39880).
 """
 
 from __future__ import annotations
@@ -81,14 +83,15 @@ def backends_started() -> bool:
     return False
 
 
-def cache_dir() -> Path:
+def cache_dir(bounded: bool = True) -> Path:
     """The folder of jaxbearing's persistent compilation cache: ``$XDG_CACHE_HOME/jaxbearing/jax-lru``
-    (``~/.cache/jaxbearing/jax-lru`` where XDG_CACHE_HOME is unset). Not the ``jax`` folder
-    beside it, which jaxbearing's unbounded cache wrote before: a bounded cache reads each
-    entry's access time at every write, and an entry written unbounded has none, which fails
-    every write (jax-ml/jax#39880, fixed in later JAX releases)."""
+    (``~/.cache/jaxbearing/jax-lru`` where XDG_CACHE_HOME is unset); ``jax-unbounded`` beside it
+    for an unbounded cache (``bounded=False``). The two are never one folder, nor the ``jax``
+    folder, which jaxbearing's unbounded cache wrote before: a bounded cache reads each entry's
+    access time at every write, and an entry written unbounded has none, which fails every
+    write (jax-ml/jax#39880)."""
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "jaxbearing" / "jax-lru"
+    return Path(base) / "jaxbearing" / ("jax-lru" if bounded else "jax-unbounded")
 
 
 def apply_compilation_cache() -> Path | None:
@@ -99,11 +102,12 @@ def apply_compilation_cache() -> Path | None:
     chosen = jax.config.jax_compilation_cache_dir or os.environ.get("JAX_COMPILATION_CACHE_DIR")
     if chosen:
         return Path(chosen)
-    jax.config.update("jax_compilation_cache_dir", str(cache_dir()))
     threshold = jax.config.jax_persistent_cache_min_compile_time_secs
     if threshold == JAX_MIN_COMPILE_TIME and "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     unbounded = jax.config.jax_compilation_cache_max_size == -1  # JAX's default
     if unbounded and "JAX_COMPILATION_CACHE_MAX_SIZE" not in os.environ:
         jax.config.update("jax_compilation_cache_max_size", CACHE_MAX_SIZE)
-    return cache_dir()
+    folder = cache_dir(bounded=jax.config.jax_compilation_cache_max_size != -1)
+    jax.config.update("jax_compilation_cache_dir", str(folder))
+    return folder

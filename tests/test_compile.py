@@ -392,6 +392,8 @@ if "own-threshold" in sys.argv:
 import jaxbearing
 if "build" in sys.argv:
     jaxbearing.cases.four_bar()  # compiles its assembly's constraints, in well under a second
+if "more" in sys.argv:
+    jax.jit(lambda x: 3.0 * x + 1.0)(1.0)  # a program no other call compiles
 folder = jax.config.jax_compilation_cache_dir
 stored = sorted(p.name.split("-")[0] for p in Path(folder).iterdir()) if folder and Path(folder).is_dir() else []
 config = jax.config
@@ -412,6 +414,7 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cac
             [sys.executable, "-c", _CACHE_DIR, *args], env=own_cache_env(**env), capture_output=True, text=True
         )
         assert done.returncode == 0, done.stderr[-3000:]
+        assert "Error writing persistent compilation cache" not in done.stderr, done.stderr[-3000:]
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     folder, threshold, stored, size = cache("build", XDG_CACHE_HOME=str(tmp_path))
@@ -421,6 +424,12 @@ def test_the_persistent_cache_is_on_by_default_with_an_opt_out(tmp_path, own_cac
     assert cache("own-threshold", XDG_CACHE_HOME=str(tmp_path))[1] == 5.0  # set before the import
     elsewhere = cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_DIR="/elsewhere")
     assert elsewhere == ["/elsewhere", 1.0, [], -1]
-    assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="-1")[3] == -1
+    # an unbounded cache writes entries without an access time, which would fail every write of
+    # a bounded cache in that folder (jax-ml/jax#39880): its own folder
+    fresh = tmp_path / "fresh"
+    unbounded = cache("build", XDG_CACHE_HOME=str(fresh), JAX_COMPILATION_CACHE_MAX_SIZE="-1")
+    assert (unbounded[0], unbounded[3]) == (str(fresh / "jaxbearing" / "jax-unbounded"), -1)
+    assert "jit_linearized" in unbounded[2], unbounded[2]
+    assert "jit__lambda" in cache("build", "more", XDG_CACHE_HOME=str(fresh))[2]  # bounded: writes
     assert cache(XDG_CACHE_HOME=str(tmp_path), JAX_COMPILATION_CACHE_MAX_SIZE="1000000")[3] == 1_000_000
     assert cache(XDG_CACHE_HOME=str(tmp_path), **{_process.CACHE_OPT_OUT: "1"}) == [None, 1.0, [], -1]
