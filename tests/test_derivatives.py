@@ -149,7 +149,8 @@ def test_output_samples_differentiate_alike_in_both_modes():
 
 
 @pytest.mark.slow  # 1 min each: 3 tangents at once through the paper's case; the default set checks
-# forward mode on the rotor (tests/test_one_loop.py) and reverse mode here (tests/test_transforms.py)
+# forward mode against central differences on the rotor (tests/test_tune.py, a batch of tangents)
+# and runs reverse mode through tune (tests/test_tune.py, mode="reverse")
 @pytest.mark.parametrize("ball_force", ["paper", "smooth"])
 def test_sensitivities_without_impact(ball_force):
     check_paths(case(ball_force, impact=False))

@@ -164,8 +164,8 @@ def _rotor_metrics(solve):
     return jax.jit(metrics)
 
 
-@pytest.mark.slow  # 14 s: two forward-mode programs at rtol 1e-10 (tests/test_derivatives.py and
-# tests/test_tune.py check forward mode against central differences in the default set)
+@pytest.mark.slow  # 14 s: two forward-mode programs at rtol 1e-10 (tests/test_tune.py checks
+# forward mode against central differences in the default set, a batch of tangents on the rotor)
 def test_forward_mode_derivatives_agree_with_simulate():
     """d/d clearance of the RMS bearing force and the peak ball load through the while loop
     (forward mode, the event times' tangents from the implicit function theorem) against the

@@ -57,7 +57,7 @@ def test_vmap_equals_jit(ends):
     assert ends[0] < ends[1]  # a wider clearance lets the body move further
 
 
-@pytest.mark.slow  # 30 s: a reverse-mode compile of the paper's case; test_tune runs reverse mode by default
+@pytest.mark.slow  # 30 s: a reverse-mode compile of the paper's case; test_tune runs reverse mode in the default set
 def test_grad_matches_central_difference(central_difference):
     # jax.jacrev of two metrics at once: tests/test_derivatives.py
     np.testing.assert_allclose(jax.grad(end_x)(CLEARANCE), central_difference, rtol=RTOL_FD)
