@@ -65,13 +65,16 @@ def test_a_root_at_the_upper_end_takes_no_step():
 
 
 def test_derivative_of_the_event_time_is_the_implicit_one():
-    # root of t^3 = p: dt/dp = 1 / (3 t^2), from the located time, not the iterates
+    # root of t^3 = p: dt/dp = 1 / (3 t^2), from the located time, not the iterates; the
+    # located event is the largest of the event values there (the other, t - 1, is below zero)
     def root(p):
         f = lambda t: t**3 - p  # noqa: E731
         state = itp_start(0.4, 0.6, f(0.4), f(0.6), EVENT_TIME_TOLERANCE)
         for _ in range(60):
             state = itp_step(state, f(state.next))
-        return _event_time(f, jax.lax.stop_gradient(state.upper))
+        t_event, values = _event_time(lambda t: jnp.stack([t - 1.0, f(t)]), jax.lax.stop_gradient(state.upper))
+        assert values.shape == (2,)
+        return t_event
 
     p = 0.5**3 + 1e-3
     t = p ** (1 / 3)

@@ -167,6 +167,9 @@ def animate(
             marker.set_xdata([ts[i], ts[i]])
 
     update(0)
+    # every frame has the same limits, ticks and panel: lay the figure out once, not per frame
+    fig.draw_without_rendering()
+    fig.set_layout_engine(None)  # the positions stay; with "none" each print draws twice
     anim = FuncAnimation(fig, update, frames=len(indices), interval=1000.0 / fps, repeat=True)
     if path is not None:
         save(anim, path, writer, dpi)

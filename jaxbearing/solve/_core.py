@@ -125,25 +125,29 @@ def _event_value(s: Setup, t, y, states):
     return jnp.max(s.system.event_values(t, y, states), initial=-1.0)
 
 
-def _event_time(event, t_root):
+def _event_time(values_along, t_root):
     """The event time ``t_root`` [s] located by the root finder, with the tangent of the implicit
-    function theorem: the event value ``event(t)`` (along the step's interpolant; the located
-    event's own, a smooth function) is 0 there, so dt = -(d event / d parameters) / (d event /
-    dt)."""
+    function theorem, and the event values there ((E,), without tangents). The located event is
+    the largest value at ``t_root``; its value along the step's interpolant (a smooth function
+    of t) is 0 there, so dt = -(d value / d parameters) / (d value / dt). The located event's
+    own value, not the largest's: JAX's derivative of a maximum divides by how many entries
+    equal it, and none may where the compiled program rounds the maximum and the entry apart (a
+    NaN event time was seen with two bearings' balls)."""
     t_root = jax.lax.stop_gradient(t_root)
-    value, slope = jax.jvp(event, (t_root,), (jnp.ones_like(t_root),))
-    slope = jax.lax.stop_gradient(slope)
+    values, slopes = jax.jvp(values_along, (t_root,), (jnp.ones_like(t_root),))
+    which = jax.lax.stop_gradient(jnp.argmax(values))
+    value, slope = values[which], jax.lax.stop_gradient(slopes[which])
     moved = value - jax.lax.stop_gradient(value)  # 0, with the tangent of the value at fixed t
-    return t_root - jnp.where(slope != 0, moved / jnp.where(slope != 0, slope, 1.0), 0.0)
+    t_event = t_root - jnp.where(slope != 0, moved / jnp.where(slope != 0, slope, 1.0), 0.0)
+    return t_event, jax.lax.stop_gradient(values)
 
 
-def _switch(s: Setup, x: State, t, y, hit):
-    """Switch the states for the event at (t, y), the located value and any other already
-    across: (states, onset (time, logged value, episodic element, any), separated (K,) bool,
-    jumped). ``jumped``: a switched event value lies above `JUMP` there, so it jumped across
-    zero instead of crossing it (a contact switched on, by its ``active_from``, while its
-    surfaces overlap)."""
-    values = s.system.event_values(t, y, x.states)
+def _switch(s: Setup, x: State, t, y, values, hit):
+    """Switch the states for the event at (t, y), where the event values are ``values``, the
+    located (largest) value and any other already across: (states, onset (time, logged value,
+    episodic element, any), separated (K,) bool, jumped). ``jumped``: a switched event value
+    lies above `JUMP` there, so it jumped across zero instead of crossing it (a contact switched
+    on, by its ``active_from``, while its surfaces overlap)."""
     located = jnp.arange(values.shape[0]) == jnp.argmax(values)
     crossed = (located | (values > 0)) & hit
     jumped = jnp.any(crossed & (values > JUMP))
@@ -317,13 +321,9 @@ def _locate(s: Setup, x: State) -> tuple[State, _Outcome]:
         return s.system.event_values(t, interpolation.evaluate(t), x.states)
 
     def event():  # the event, and the event value after its switch
-        # the located event's own value, not the largest's: JAX's derivative of a maximum
-        # divides by how many entries equal it, and none may where the compiled program rounds
-        # the maximum and the entry apart (a NaN event time was seen with two bearings' balls)
-        which = jax.lax.stop_gradient(jnp.argmax(values_along(root.upper)))
-        t_event = _event_time(lambda t: values_along(t)[which], root.upper)
+        t_event, values = _event_time(values_along, root.upper)
         y_event = interpolation.evaluate(t_event)
-        states, onset, separated, jumped = _switch(s, x, t_event, y_event, located)
+        states, onset, separated, jumped = _switch(s, x, t_event, y_event, values, located)
         value = _event_value(s, t_event, y_event, states)
         return t_event, y_event, states, onset, separated, jumped, value
 
