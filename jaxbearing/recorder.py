@@ -329,13 +329,14 @@ class Recorder(AbstractRecorder):
             values.append(peaks[u][1].at(model, x)[None])
         return jnp.concatenate(values)
 
-    def outputs(self, t, y, states, accelerations) -> dict:
-        """What an output time holds: ``q``, ``qd``, ``qdd`` (``accelerations``), ``drift``
-        (max |Phi(q, t)|) and each element's quantities (``elements``)."""
+    def outputs(self, t, y, states) -> dict:
+        """What an output time holds: ``q``, ``qd``, ``drift`` (max |Phi(q, t)|) and each
+        element's quantities (``elements``); the accelerations are evaluated when read
+        (`Solution.qdd`), from these and the states there."""
         model = self.model
         q, qd = self._split(y)
         drift = jnp.max(jnp.abs(model.constraints(q, t))) if model.joints else jnp.zeros(())
-        return {"q": q, "qd": qd, "qdd": accelerations, "drift": drift, "elements": self.observe(t, y, states)}
+        return {"q": q, "qd": qd, "drift": drift, "elements": self.observe(t, y, states)}
 
     def solution(self, x, outputs: dict, ts, stops, t0, result, n_segments) -> Solution:
         """The `Solution` of a solve that ended in state ``x`` (the engine's `solve.State`) with
@@ -381,7 +382,7 @@ class Recorder(AbstractRecorder):
         displacement = values[columns.displacement : columns.displacement + n].T
         displacement_times = times[columns.displacement : columns.displacement + n].T
         o = outputs
-        samples = Samples(o["q"], o["qd"], o["qdd"], o["drift"], o["elements"])
+        samples = Samples(o["q"], o["qd"], o["drift"], o["elements"], o["states"], model)
         shape = layout(model)
         episodes = _episodes(x, shape)
         records = Records(

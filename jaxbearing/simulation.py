@@ -39,7 +39,7 @@ from ._checks import is_concrete
 from ._options import SolveOptions, check_record_windows, record_edges
 from ._trust import warn_if_loose, warn_if_rattling
 from .multibody.mechanism import Mechanism
-from .recorder import MechanismSystem, Recorder, accelerations
+from .recorder import MechanismSystem, Recorder
 from .solution import DriftWarning, Solution, first_rows, raise_on_failure
 from .solve import (
     RESULTS,
@@ -70,7 +70,7 @@ from .solve import (
 
 INITIAL_STEP = 1e-7  # first step as a fraction of t1 - t0; the controller grows it 10x a step
 RTOL, ATOL = 1e-8, 1e-10  # the default step-size control's tolerances (state in m, rad, m/s)
-OUTPUT_BATCH = 2048  # output times evaluated together (forces, accelerations) after the solve
+OUTPUT_BATCH = 2048  # output times evaluated together (forces, drift) after the solve
 OUTPUT_BUCKET = 2048  # fewer output times share one compiled solve of this many (`_bucketed`)
 SEGMENT_STEPS = 128  # default iterations of a segment: the rows of its record of steps
 ITERATION_RATE = 500_000.0  # [1/s] iterations per simulated second the default max_segments allows
@@ -438,14 +438,12 @@ def solution(recorder, ts, stops, t0, x, result, rows, written, full, n_segments
     the outputs; the last one ends at T and so overlaps its predecessor, whose rows it evaluates
     again, identically (no remainder to evaluate and concatenate apart)."""
     model = recorder.model
-    n, T = model.n_coordinates, ts.shape[0]
+    T = ts.shape[0]
     batch = min(OUTPUT_BATCH, T)
     index = jnp.arange(batch)
 
     def at(t, y, states):
-        # outputs at one time
-        qdd = accelerations(model, t, y[:n], y[n:], states)
-        return recorder.outputs(t, y, states, qdd)
+        return recorder.outputs(t, y, states)  # outputs at one time
 
     def at_rest(reached, y, states):
         start = jnp.concatenate([model.q0, model.qd0])
@@ -462,7 +460,8 @@ def solution(recorder, ts, stops, t0, x, result, rows, written, full, n_segments
             lambda: at_rest(reached, *rows(start, batch)),
         )
         values = jax.vmap(at)(t, *row)
-        return jax.tree_util.tree_map(lambda x: _where_rows(reached, x, jnp.nan), values)
+        values = jax.tree_util.tree_map(lambda x: _where_rows(reached, x, jnp.nan), values)
+        return {**values, "states": row[1]}  # states not reached: zero (`at_rest`)
 
     shapes = jax.eval_shape(evaluate, jax.ShapeDtypeStruct((), jnp.int32))
     outputs = jax.tree_util.tree_map(lambda s: jnp.zeros((T,) + s.shape[1:], s.dtype), shapes)

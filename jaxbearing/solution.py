@@ -9,7 +9,6 @@ records; `jaxbearing.metrics` and `jaxbearing.life` read it without the model's 
 from __future__ import annotations
 
 import dataclasses
-import functools
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -371,18 +370,42 @@ class Samples(eqx.Module):
     """What the solve evaluated at the output times (`Solution.samples`). Fields (T = number
     of output times; NaN at the times a run that failed did not reach):
 
-        q, qd, qdd: (T, n_coordinates) coordinates [m, rad], velocities, accelerations; bodies
-            in model order, [x, y, theta] each.
+        q, qd: (T, n_coordinates) coordinates [m, rad] and velocities; bodies in model order,
+            [x, y, theta] each.
         drift: (T,) max |Phi(q, t)| [m or rad], the constraint violation.
         elements: one dict per force element (``model.forces`` order), name -> (T, ...), of
             the quantities its `observe` names.
+        states: the force elements' discrete states in force at each output time (one pytree
+            per element, each leaf (T, ...); zero at the times not reached), which
+            `Solution.qdd` reads.
+        model: the simulated model (None: samples without one, whose `Solution.qdd` raises).
     """
 
     q: jax.Array
     qd: jax.Array
-    qdd: jax.Array
     drift: jax.Array
     elements: tuple
+    states: tuple = ()
+    model: object = None
+
+
+def _accelerations_at(model, ts, q, qd, states):
+    """q_ddot (..., T, n) [m/s^2, rad/s^2] from Eq. 36 at each output time (ts (..., T)), with
+    the discrete states in force there; NaN where q or qd is not finite. Leading axes: a
+    batch (`jax.vmap` of `simulate`), whose model leaves carry them too."""
+
+    def one(model, t, q, qd, states):
+        ok = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(qd))
+        safe_q, safe_qd = jnp.where(ok, q, model.q0), jnp.where(ok, qd, model.qd0)
+        return jnp.where(ok, model.accelerations(t, safe_q, safe_qd, states, sparse=True), jnp.nan)
+
+    each = eqx.filter_vmap(one, in_axes=(None, 0, 0, 0, 0))
+    for _ in range(jnp.ndim(ts) - 1):
+        each = eqx.filter_vmap(each)
+    return each(model, ts, q, qd, states)
+
+
+_accelerations_program = eqx.filter_jit(_accelerations_at)
 
 
 class Records(eqx.Module):
@@ -481,7 +504,8 @@ class Solution(eqx.Module):
 
     Fields:
         ts: (T,) the output times [s].
-        samples: `Samples` at the output times (q, qd, qdd, drift, each element's quantities).
+        samples: `Samples` at the output times (q, qd, drift, each element's quantities and
+            states; ``sol.qdd`` evaluates the accelerations from them).
         records: `Records` (intervals, each element's records, displacement peaks, episodes,
             the max drift, and ``sol.records[name]`` of each metric of your own).
         stats: solver statistics: ``num_steps``, ``num_rejected_steps`` (over all segments),
@@ -518,7 +542,17 @@ class Solution(eqx.Module):
 
     q = property(lambda self: self.samples.q, doc="(T, n_coordinates) [m, rad] (`Samples`).")
     qd = property(lambda self: self.samples.qd, doc="(T, n_coordinates) velocities (`Samples`).")
-    qdd = property(lambda self: self.samples.qdd, doc="(T, n_coordinates) accelerations (`Samples`).")
+    @property
+    def qdd(self) -> jax.Array:
+        """(T, n_coordinates) accelerations [m/s^2, rad/s^2] at the output times: Eq. 36 at
+        ``q``, ``qd`` with the force elements' discrete states in force there, evaluated when
+        read (a program of its own, compiled at the first read of a model's, so that a solve
+        whose accelerations nobody reads does not compile them); NaN where ``q`` is."""
+        if self.samples.model is None:
+            raise ValueError("These samples hold no model (Samples.model): their accelerations cannot be evaluated.")
+        a = self.samples
+        return _accelerations_program(a.model, self.ts, a.q, a.qd, a.states)
+
     drift = property(lambda self: self.samples.drift, doc="(T,) max |Phi| [m or rad] (`Samples`).")
     intervals = property(lambda self: self.records.intervals, doc="`Intervals` (`Records`).")
     episodes = property(lambda self: self.records.episodes, doc="`Episodes` (`Records`).")
@@ -670,11 +704,15 @@ def map_per_time(fn, sol: Solution, *more: Solution) -> Solution:
     """``sol`` with ``ts`` and each array of its `Samples` x (first axis: the output times)
     replaced by ``fn(x, *the same array of each of more)``."""
     ts = fn(sol.ts, *(m.ts for m in more))
-    samples = jax.tree_util.tree_map(fn, sol.samples, *(m.samples for m in more))
-    return dataclasses.replace(sol, ts=ts, samples=samples)
+    fields = ("q", "qd", "drift", "elements", "states")  # the model is not per time
+    rows = {
+        name: jax.tree_util.tree_map(fn, getattr(sol.samples, name), *(getattr(m.samples, name) for m in more))
+        for name in fields
+    }
+    return dataclasses.replace(sol, ts=ts, samples=dataclasses.replace(sol.samples, **rows))
 
 
-@functools.partial(jax.jit, static_argnums=1)
+@eqx.filter_jit  # the model in the samples may hold non-array leaves
 def first_rows(sol: Solution, n: int) -> Solution:
     """``sol`` with its per-time fields cut to the first ``n`` output times (a solve padded its
     output times to share a compiled solve)."""

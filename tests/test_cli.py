@@ -36,6 +36,16 @@ ROOT = Path(__file__).resolve().parents[1]
 # ---------------------------------------------------------------------------------------------
 
 
+class Still(eqx.Module):
+    """The model of a hand-made solution (`fake_solution`): every acceleration zero."""
+
+    q0: np.ndarray
+    qd0: np.ndarray
+
+    def accelerations(self, t, q, qd, states, *, sparse=False):
+        return jax.numpy.zeros_like(q)
+
+
 def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segments=6):
     """A `Solution` of the xu2014 layout (4 bodies x 3 coordinates; a bearing joint, a spring,
     a contact) made by hand: its samples as given, its records the peaks of the samples over
@@ -49,7 +59,6 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
     q[:, 9] = 0.18  # target x
     qd = np.zeros((T, 12))
     qd[:, 6] = 1.0
-    qdd = np.zeros((T, 12))
     loads = np.zeros((T, 8)) if ball_loads is None else np.asarray(ball_loads, dtype=float)
     force = np.stack([3.0 * np.ones(T), 4.0 * np.ones(T)], axis=1)  # |F| = 5 N
     records = np.full((5, max_segments), np.nan)  # time, speed, end, peak force, peak time
@@ -64,12 +73,12 @@ def fake_solution(ts, ball_loads=None, contact_force=None, onsets=(), max_segmen
         "element_loads": loads, "force": force, "cage_angle": np.zeros(T),
         "max_element_load": loads.max(axis=1), "force_magnitude": magnitude,
     }  # fmt: skip
-    samples = Samples(q, qd, qdd, np.linspace(0.0, 1e-11, T), (
+    samples = Samples(q, qd, np.linspace(0.0, 1e-11, T), (
         bearing,
         {"tension": np.zeros(T), "length": np.zeros(T)},
         {"normal_force": contact, "friction_force": np.zeros(T), "penetration": np.zeros(T),
          "approach_speed": np.zeros(T)},
-    ))  # fmt: skip
+    ), (), Still(np.zeros(12), np.zeros(12)))  # fmt: skip
     intervals, peaks, times, at_peak = fake_records(ts, loads, magnitude, contact)
     none = ElementRecords({}, {}, {}, {})
     elements = (

@@ -47,6 +47,21 @@ def test_a_metric_or_life_of_a_run_that_stopped_short_raises(model, short):
     assert np.isfinite(reached) and reached > 0.0
 
 
+def test_accelerations_of_a_run_that_stopped_short_are_nan_where_it_did_not_reach(model, short):
+    """`Solution.qdd`, evaluated when read: NaN exactly at the output times the run did not
+    reach; where it did, Eq. 36 by the dense Schur complement (the solve's is the entry-by-entry
+    elimination) with the discrete states there, within rounding (1e-12 of the largest)."""
+    q, qdd = np.asarray(short.q), np.asarray(short.qdd)
+    reached = np.isfinite(q).all(axis=1)
+    assert reached[0] and not reached.all()
+    np.testing.assert_array_equal(np.isfinite(qdd).all(axis=1), reached)
+    assert np.isnan(qdd[~reached]).all()
+    dense = jax.jit(jax.vmap(lambda t, q, qd, s: model.accelerations(t, q, qd, s)))
+    rows = jax.tree_util.tree_map(lambda x: x[reached], (short.ts, short.q, short.qd, short.samples.states))
+    expected = np.asarray(dense(*rows))
+    np.testing.assert_allclose(qdd[reached], expected, rtol=0, atol=1e-12 * np.max(np.abs(expected)))
+
+
 def test_an_element_that_never_acted_peaks_at_zero_at_no_time(model):
     sol = jb.simulate(model, T1)  # the contact is switched on at 0.05 s
     assert float(M.peak_impact_force(sol, t_min=None)) == 0.0

@@ -328,7 +328,7 @@ def _fake_solution(model, e0, omega=20 * np.pi, samples=401):
     force = jax.vmap(jb.laws.resultant)(loads, jnp.asarray(cage))
     S = jb.solution
     bearing = {"element_loads": loads, "force": force, "cage_angle": jnp.asarray(cage)}
-    samples = S.Samples(jnp.asarray(q), jnp.asarray(qd), None, None, (bearing, {}))
+    samples = S.Samples(jnp.asarray(q), jnp.asarray(qd), None, (bearing, {}))
     records = S.Records(None, (None, None), None, None, None, None, None, None, {})
     return jb.Solution(jnp.asarray(ts), samples, records, {}, None, None, None, None, layout(model))
 
