@@ -18,18 +18,20 @@ jax.config.update("jax_enable_x64", True)
 # tests follow one by one.
 SHARED = {  # modules, each a group
     "test_clearance_joint", "test_compile", "test_hertz", "test_impact",
-    "test_multibody", "test_progress", "test_rollers", "test_rotor_metrics", "test_sweep",
-    "test_records", "test_two_bearings", "test_report_draw", "test_reference_life",
+    "test_multibody", "test_progress", "test_rotor_metrics", "test_sweep",
+    "test_records", "test_two_bearings", "test_report_draw",
 }
 MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the paper's case over 0-0.2 s, up to 2048 output times, with impact and without
-    "paper_0.2s": ("test_xu2014", "test_cli", "test_life", "test_one_loop"),
+    "paper_0.2s": ("test_xu2014", "test_cli", "test_life", "test_one_loop", "test_converged"),
     # the paper's case without impact over 0-0.02 s at 201 output times (below), pauses and
     # the metrics against dense samples
     "free_0.02s": ("test_pauses", "test_metrics_exact"),
     # the paper's case over 0-0.005 s (up to 2048 output times; its contact, switched on at
     # 0.05 s, does not act yet)
     "paper_0.005s": ("test_transforms", "test_validation", "test_windows", "test_fail_safe"),
+    # a rotor in the SKF 98205 under a steady load, 256 segment slots (a span up to 0.06 s)
+    "rotor_98205": ("test_rollers", "test_reference_life"),
 }
 COMPILE_GROUPS = {  # tests of several modules that share one compiled solve
     # the paper's case without impact, 0-0.02 s, 201 output times, default options

@@ -21,16 +21,23 @@ JOINTS = [
 ]
 
 
-@pytest.mark.parametrize("joint", JOINTS, ids=lambda j: type(j).__name__)
-def test_closed_forms_match_autodiff(joint):
-    jac = jax.jacfwd(joint, argnums=0)(Q, T)
-    phi_t = jax.jacfwd(joint, argnums=1)(Q, T)
-    np.testing.assert_allclose(joint.jacobian(Q, T), jac, atol=1e-14)
-    np.testing.assert_allclose(joint.time_derivative(Q, T), phi_t, atol=1e-14)
+@jax.jit
+def closed_and_derived(joint, q, qd, t):
+    """(closed forms, forward-mode derivatives) of Phi_q, Phi_t and -gamma at (q, qd, t): one
+    compiled program a joint, not one per operation."""
 
     def phi_dot(q, t):
-        return jax.jvp(joint, (q, t), (QD, jnp.ones_like(t)))[1]
+        return jax.jvp(joint, (q, t), (qd, jnp.ones_like(t)))[1]
 
     # d/dt Phi_dot at zero acceleration = -gamma
-    second = jax.jvp(phi_dot, (Q, T), (QD, jnp.ones_like(T)))[1]
-    np.testing.assert_allclose(joint.gamma(Q, QD, T), -second, atol=1e-12)
+    second = jax.jvp(phi_dot, (q, t), (qd, jnp.ones_like(t)))[1]
+    derived = (jax.jacfwd(joint, argnums=0)(q, t), jax.jacfwd(joint, argnums=1)(q, t), second)
+    closed = (joint.jacobian(q, t), joint.time_derivative(q, t), -joint.gamma(q, qd, t))
+    return closed, derived
+
+
+@pytest.mark.parametrize("joint", JOINTS, ids=lambda j: type(j).__name__)
+def test_closed_forms_match_autodiff(joint):
+    closed, derived = closed_and_derived(joint, Q, QD, T)
+    for name, c, d, atol in zip(("Phi_q", "Phi_t", "gamma"), closed, derived, (1e-14, 1e-14, 1e-12)):
+        np.testing.assert_allclose(c, d, atol=atol, err_msg=name)

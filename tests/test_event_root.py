@@ -70,17 +70,18 @@ def test_derivative_of_the_event_time_is_the_implicit_one():
     def root(p):
         f = lambda t: t**3 - p  # noqa: E731
         state = itp_start(0.4, 0.6, f(0.4), f(0.6), EVENT_TIME_TOLERANCE)
-        for _ in range(60):
-            state = itp_step(state, f(state.next))
+        state = jax.lax.fori_loop(0, 60, lambda _, state: itp_step(state, f(state.next)), state)
         t_event, values = _event_time(lambda t: jnp.stack([t - 1.0, f(t)]), jax.lax.stop_gradient(state.upper))
         assert values.shape == (2,)
         return t_event
 
     p = 0.5**3 + 1e-3
     t = p ** (1 / 3)
-    np.testing.assert_allclose(float(root(p)), t, rtol=1e-12)
-    np.testing.assert_allclose(float(jax.grad(root)(p)), 1.0 / (3.0 * t**2), rtol=1e-10)
-    np.testing.assert_allclose(float(jax.jvp(root, (p,), (1.0,))[1]), 1.0 / (3.0 * t**2), rtol=1e-10)
+    # each compiled whole: eagerly, every operation of the 60 steps would compile a program
+    np.testing.assert_allclose(float(jax.jit(root)(p)), t, rtol=1e-12)
+    np.testing.assert_allclose(float(jax.jit(jax.grad(root))(p)), 1.0 / (3.0 * t**2), rtol=1e-10)
+    tangent = jax.jit(lambda p: jax.jvp(root, (p,), (1.0,))[1])(p)
+    np.testing.assert_allclose(float(tangent), 1.0 / (3.0 * t**2), rtol=1e-10)
 
 
 def test_vmapped_members_agree_with_single_solves():

@@ -37,9 +37,7 @@ def test_a_metric_or_life_of_a_run_that_stopped_short_raises(model, short):
         M.peak_time(short, M.peak_ball_load, t_min=None)
     with pytest.raises(jb.SimulationError, match=r"no result"):
         jb.life.iso_life(short, model, t_min=None)
-    own = M.Peak(lambda m, x: jax.numpy.max(x.bearings[0].ball_loads), t_min=0.0)
-    stopped = jb.simulate(model, T1, max_steps=20, throw=False, options=jb.SolveOptions(records={"own": own}))
-    assert np.isnan(float(stopped.records["own"]))  # read inside the compiled solve: NaN
+    # (the records of your own of such a run: tests/test_metrics_exact.py)
     # traced (under jit, as in sweeps) the metric is NaN, never a plausible number
     assert np.isnan(float(jax.jit(lambda s: M.peak_ball_load(s, t_min=None))(short)))
     # up to where it stopped, the run is there to inspect

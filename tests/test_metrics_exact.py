@@ -141,14 +141,17 @@ def test_each_coordinate_of_an_interpolant_alone(solver):
     n = 3
     matrix = jnp.asarray(np.random.default_rng(0).normal(size=(2 * n, 2 * n)))
     term = diffrax.ODETerm(lambda t, y, args: jnp.sin(matrix @ y) + t)
-    y0 = jnp.linspace(0.1, 0.6, 2 * n)
-    t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
-    state = solver.init(term, t0, t1, y0, None)
-    _, _, dense, _, _ = solver.step(term, t0, t1, y0, None, state, False)
-    interpolation = solver.interpolation_cls(t0=t0, t1=t1, **dense)
-    times = jnp.asarray([0.013, 0.05, 0.097])
-    whole = jnp.stack([interpolation.evaluate(t)[j] for j, t in enumerate(times)])
-    np.testing.assert_allclose(_coordinates_at(interpolation, n, times), whole, rtol=1e-14)
+
+    @jax.jit  # one program, not one per operation of the step
+    def both(y0, t0, t1, times):
+        state = solver.init(term, t0, t1, y0, None)
+        _, _, dense, _, _ = solver.step(term, t0, t1, y0, None, state, False)
+        interpolation = solver.interpolation_cls(t0=t0, t1=t1, **dense)
+        whole = jnp.stack([interpolation.evaluate(times[j])[j] for j in range(times.shape[0])])
+        return _coordinates_at(interpolation, n, times), whole
+
+    alone, whole = both(jnp.linspace(0.1, 0.6, 2 * n), 0.0, 0.1, jnp.asarray([0.013, 0.05, 0.097]))
+    np.testing.assert_allclose(alone, whole, rtol=1e-14)
 
 
 def test_vertex_of_the_recorded_points():
@@ -233,15 +236,18 @@ def test_metrics_do_not_depend_on_the_output_times():
 
 SPEED = M.Peak(lambda model, x: jnp.abs(x.qd[6]))  # the slider's speed [m/s]
 SPEED_SQUARED = M.Mean(lambda model, x: x.qd[6] ** 2)  # [m^2/s^2]
+# a peak over a window of its own, from the start (before the model's window): the slowest
+SLOWEST = M.Peak(lambda model, x: -jnp.abs(x.qd[6]), t_min=0.0)  # -min |speed| [m/s]
+OWN = jb.SolveOptions(records={"speed": SPEED, "speed_squared": SPEED_SQUARED, "slowest": SLOWEST})
 
 
 def test_metrics_of_your_own_against_dense_samples(model, dense):
     """A `Peak` and a `Mean` of a smooth quantity (the slider's speed), recorded in a run with
-    21 output times, against the samples 1 µs apart over the model's window: within 1e-6 (the
-    sampled maximum lies below the true one by about f'' (1 µs)^2 / 8, 1e-9 relative here; the
-    trapezoid's error is of the same order)."""
-    options = jb.SolveOptions(records={"speed": SPEED, "speed_squared": SPEED_SQUARED})
-    sol = jb.simulate(model, T1, jnp.linspace(0.0, T1, 21), options=options)
+    21 output times, against the samples 1 µs apart over the model's window, and a `Peak` over
+    a window of its own from the start (the least speed): within 1e-6 (the sampled maximum
+    lies below the true one by about f'' (1 µs)^2 / 8, 1e-9 relative here; the trapezoid's
+    error is of the same order)."""
+    sol = jb.simulate(model, T1, jnp.linspace(0.0, T1, 21), options=OWN)
     ts = np.asarray(dense.ts)
     after = ts >= STOP
     speed = np.abs(np.asarray(dense.qd)[after, 6])
@@ -249,3 +255,16 @@ def test_metrics_of_your_own_against_dense_samples(model, dense):
     assert float(SPEED(sol)) == float(sol.records["speed"])
     mean = np.trapezoid(speed**2, ts[after]) / (T1 - STOP)
     assert float(sol.records["speed_squared"]) == pytest.approx(mean, rel=1e-6)
+    slowest = np.abs(np.asarray(dense.qd)[:, 6]).min()
+    assert -float(sol.records["slowest"]) == pytest.approx(slowest, rel=1e-6)
+    assert slowest < speed.min()  # before the model's window: not the window's number
+
+
+def test_records_of_your_own_of_a_run_that_stopped_short_are_nan(model):
+    """A run stopped by its step limit (inside the window from the start, before the model's)
+    records NaN for every metric of your own, read inside the compiled solve: never the peak of
+    the part it ran (issue 64; the run of the test above, so the same compiled solve)."""
+    stopped = jb.simulate(model, T1, jnp.linspace(0.0, T1, 21), options=OWN, max_steps=20, throw=False)
+    assert stopped.result == jb.RESULTS.max_steps_reached and 0.0 < float(stopped.t_final) < STOP
+    for name in ("speed", "speed_squared", "slowest"):
+        assert np.isnan(float(stopped.records[name])), name

@@ -160,7 +160,9 @@ def test_double_pendulum_matches_lagrange_equations(double_pendulum):
 # --------------------------------------------------------------------------- rotor in a bearing
 
 K_B = 9.57e9  # [N/m^1.5]
-ROTOR_TS = 501  # output points; the same for both rotor runs so that they share one compile
+# output points and segment slots (the default's for the longer run, 0.05 s): the same for both
+# rotor runs so that they share one compile
+ROTOR_TS, ROTOR_OPTIONS = 501, jb.SolveOptions(max_segments=256)
 
 
 def rotor_model(clearance, damping, mass=2.0):
@@ -169,7 +171,7 @@ def rotor_model(clearance, damping, mass=2.0):
 
 
 def rotor_run(model, t1):
-    return jb.simulate(model, t1, np.linspace(0.0, t1, ROTOR_TS), stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-14))
+    return jb.simulate(model, t1, np.linspace(0.0, t1, ROTOR_TS), stepsize_controller=jb.default_controller(rtol=1e-10, atol=1e-14), options=ROTOR_OPTIONS)
 
 
 def test_rotor_undamped_bearing_conserves_energy():
@@ -325,13 +327,18 @@ def test_accelerations_solve_the_augmented_system(case, sparse):
         else None if s is None else jnp.ones_like(s)
         for s in model.initial_states(t, q, qd)
     )  # fmt: skip
-    forces = np.asarray(model.generalized_forces(t, q, qd, states))
-    jac, rhs = (np.asarray(x) for x in model.constraint_rhs(q, qd, t))
+
+    @eqx.filter_jit  # one program, not one per operation
+    def terms(model, t, q, qd, states):
+        jac, rhs = model.constraint_rhs(q, qd, t)
+        got = model.accelerations(t, q, qd, states, sparse=sparse)
+        return model.generalized_forces(t, q, qd, states), jac, rhs, model.inverse_mass, got
+
+    forces, jac, rhs, inverse_mass, got = (np.asarray(x) for x in terms(model, t, q, qd, states))
     m = rhs.shape[0]
-    mass = np.diag(1.0 / np.asarray(model.inverse_mass))
+    mass = np.diag(1.0 / inverse_mass)
     augmented = np.block([[mass, jac.T], [jac, np.zeros((m, m))]])
     expected = np.linalg.solve(augmented, np.concatenate([forces, rhs]))[:n]
-    got = np.asarray(model.accelerations(t, q, qd, states, sparse=sparse))
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 

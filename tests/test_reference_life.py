@@ -323,14 +323,17 @@ def _rotor(b, start_at=None):
 @pytest.fixture(scope="module")
 def rotor_runs():
     """(bearing, model, solution) of ball and roller bearings at a preload and a clearance (one
-    compiled solve per bearing kind), with the paper's switched ball force."""
-    runs = []
+    compiled solve per bearing kind), with the paper's switched ball force. The segment slots
+    are those a run of 0.03 s gets by default, ample for this one (its default for 0.073 s
+    would double them): the ball's solve is then tests/test_rollers.py's, on the same worker
+    (tests/conftest.py)."""
+    runs, options = [], jb.SolveOptions(max_segments=256)
     for b in (
         with_clearance(BALL, -10e-6), with_clearance(BALL, 0.0), with_clearance(BALL, 20e-6),
         with_clearance(ROLLER, -5e-6), with_clearance(ROLLER, 20e-6),
     ):  # fmt: skip
         model = _rotor(b)
-        runs.append((b, model, jb.simulate(model, WINDOW[1], jnp.array([0.0, *WINDOW]))))
+        runs.append((b, model, jb.simulate(model, WINDOW[1], jnp.array([0.0, *WINDOW]), options=options)))
     return runs
 
 
