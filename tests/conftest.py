@@ -19,7 +19,7 @@ jax.config.update("jax_enable_x64", True)
 SHARED = {  # modules, each a group
     "test_clearance_joint", "test_compile", "test_hertz", "test_impact",
     "test_multibody", "test_progress", "test_rotor_metrics", "test_sweep",
-    "test_records", "test_two_bearings", "test_report_draw",
+    "test_records", "test_two_bearings", "test_report_draw", "test_elements", "test_step_size",
 }
 MODULE_GROUPS = {  # modules that share compiled solves: one group
     # the paper's case over 0-0.2 s, up to 2048 output times, with impact and without
