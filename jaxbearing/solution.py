@@ -704,10 +704,10 @@ def map_per_time(fn, sol: Solution, *more: Solution) -> Solution:
     """``sol`` with ``ts`` and each array of its `Samples` x (first axis: the output times)
     replaced by ``fn(x, *the same array of each of more)``."""
     ts = fn(sol.ts, *(m.ts for m in more))
-    fields = ("q", "qd", "drift", "elements", "states")  # the model is not per time
+    per_time = [f.name for f in dataclasses.fields(Samples) if f.name != "model"]  # all but the model
     rows = {
         name: jax.tree_util.tree_map(fn, getattr(sol.samples, name), *(getattr(m.samples, name) for m in more))
-        for name in fields
+        for name in per_time
     }
     return dataclasses.replace(sol, ts=ts, samples=dataclasses.replace(sol.samples, **rows))
 
